@@ -1,0 +1,11 @@
+"""Analysis of granular-dynamics runs written in the "granular-frames" HDF5 schema.
+
+The package is engine-agnostic on purpose: every engine (the native C++ one and
+any reference engine) writes the same schema (see docs/output_schema.md), so
+comparisons only ever go through :func:`compare.reader.read_run`.
+"""
+
+from .reader import Frames, Profile, Run, read_run
+from .spacetime import SpaceTime, axial_profile
+
+__all__ = ["Frames", "Profile", "Run", "read_run", "SpaceTime", "axial_profile"]

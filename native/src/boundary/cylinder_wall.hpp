@@ -1,0 +1,45 @@
+// The drum's curved wall: Rapaport (2002), Sec. III. Axis along y through the
+// origin, diameter D, smooth wall of "diameter" d_w = 1 rotating with angular
+// velocity Omega. For particle i:
+//   r_iw  = r_i - (r_i . y^) y^,  in range if r_iw > D/2 - 2^(1/6) d_iw, d_iw = (d_i + d_w)/2
+//   r'_iw = (1 - D / 2 r_iw) r_iw                    (wall contact point -> particle)
+//   s     = (D/2) r^_iw x y^,  v_iw = v_i - Omega s
+//   v^s_iw = v_iw - (r^ . v_iw) r^ - w_i x r'_iw       then Eq. (5)
+// lever reading: "paper" uses w_i x r'_iw as printed; "pair" uses Eq. (3) with the
+// wall as a resting particle of diameter d_w, i.e. d_i/(d_i + d_w) w_i x r'_iw.
+#pragma once
+#include <cstddef>
+
+#include "core/particles.hpp"
+
+namespace granular {
+
+struct CylinderWall {
+  double diameter = 16.0;  // D
+  double omega = 0.5;      // Omega
+  double d_wall = 1.0;     // d_w
+  double lever_paper = 1.0, lever_pair = 0.0;  // (1,0): as printed; (0,1): Eq. (3) reading
+
+  template <class Law>
+  void apply(ParticleStore<3>& p, const Law& law, std::size_t lo, std::size_t hi) const {
+    const double half_d = 0.5 * diameter;
+    for (std::size_t i = lo; i < hi; ++i) {
+      const Eigen::Vector3d& x = p.x[i];
+      const double rr = x.x() * x.x() + x.z() * x.z();
+      const double di = p.d[i];
+      const double reach = half_d - Law::range(di, d_wall);
+      if (rr <= reach * reach) continue;
+      const double r = std::sqrt(rr);
+      const Eigen::Vector3d riw(x.x(), 0.0, x.z());
+      const Eigen::Vector3d rp = (1.0 - half_d / r) * riw;                      // r'_iw
+      const Eigen::Vector3d s(-half_d * x.z() / r, 0.0, half_d * x.x() / r);   // (D/2) r^_iw x y^
+      const Eigen::Vector3d viw = p.v[i] - omega * s;
+      const Eigen::Vector3d lever = (lever_paper + lever_pair * di / (di + d_wall)) * rp;
+      const auto res = law.wall_force(rp, di, 0.5 * (di + d_wall), viw, p.w[i], lever, p.species[i]);
+      p.f[i] += res.f;
+      p.tq[i] += res.t;
+    }
+  }
+};
+
+}  // namespace granular

@@ -1,0 +1,38 @@
+// The drum's end caps at y = +-L/2: Rapaport (2002), Sec. III. Same friction as
+// the curved wall. For particle i:
+//   r_iw = (|r_i . y^| - L/2) y^, in range if r_iw . y^ > -2^(1/6) d_iw
+//   r'_iw = +-r_iw, whichever points towards the origin;  s = r_i x y^
+// The caps rotate with the drum (wall velocity Omega s).
+#pragma once
+#include <cstddef>
+
+#include "core/particles.hpp"
+
+namespace granular {
+
+struct EndCaps {
+  double length = 128.0;  // L
+  double omega = 0.5;
+  double d_wall = 1.0;
+  double lever_paper = 1.0, lever_pair = 0.0;  // see cylinder_wall.hpp
+
+  template <class Law>
+  void apply(ParticleStore<3>& p, const Law& law, std::size_t lo, std::size_t hi) const {
+    const double half_l = 0.5 * length;
+    for (std::size_t i = lo; i < hi; ++i) {
+      const Eigen::Vector3d& x = p.x[i];
+      const double di = p.d[i];
+      const double gap = half_l - std::abs(x.y());
+      if (gap >= Law::range(di, d_wall)) continue;
+      const Eigen::Vector3d rp(0.0, x.y() > 0.0 ? -gap : gap, 0.0);  // r'_iw, towards the origin
+      const Eigen::Vector3d s(-x.z(), 0.0, x.x());                    // r_i x y^
+      const Eigen::Vector3d viw = p.v[i] - omega * s;
+      const Eigen::Vector3d lever = (lever_paper + lever_pair * di / (di + d_wall)) * rp;
+      const auto res = law.wall_force(rp, di, 0.5 * (di + d_wall), viw, p.w[i], lever, p.species[i]);
+      p.f[i] += res.f;
+      p.tq[i] += res.t;
+    }
+  }
+};
+
+}  // namespace granular

@@ -1,0 +1,184 @@
+#include "engine/drum.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+
+namespace granular {
+
+namespace {
+
+template <class Sim>
+void configure_common(Sim& sim, const DrumScene& s) {
+  sim.p = drum_particles(s);
+  const double half_d = 0.5 * s.diameter, margin = 2.0;
+  sim.box.lo = Eigen::Vector3d(-half_d - margin, -0.5 * s.length, -half_d - margin);
+  sim.box.hi = Eigen::Vector3d(half_d + margin, 0.5 * s.length, half_d + margin);
+  sim.box.periodic = {false, !s.capped, false};
+  if (s.capped) {
+    sim.box.lo.y() -= margin;
+    sim.box.hi.y() += margin;
+  }
+  sim.box.finalize();
+  sim.law = RapaportLaw<3>::from_paper(s.gamma_n, s.gamma_s_bb, s.gamma_s_ss, s.gamma_s_bw, s.gamma_s_sw, s.mu_max);
+  sim.integrator.dt = s.dt;
+  sim.integrator.gravity = Eigen::Vector3d(0.0, 0.0, -s.gravity);  // g along -z (Sec. III)
+  sim.skin = s.skin;
+  CylinderWall& cyl = std::get<CylinderWall>(sim.walls);
+  cyl.diameter = s.diameter;
+  cyl.omega = s.omega;
+  cyl.d_wall = s.wall_diameter;
+  const bool paper = s.wall_lever == "paper";
+  cyl.lever_paper = paper ? 1.0 : 0.0;
+  cyl.lever_pair = paper ? 0.0 : 1.0;
+  if constexpr (std::tuple_size_v<decltype(sim.walls)> == 2) {
+    EndCaps& caps = std::get<EndCaps>(sim.walls);
+    caps.length = s.length;
+    caps.omega = s.omega;
+    caps.d_wall = s.wall_diameter;
+    caps.lever_paper = cyl.lever_paper;
+    caps.lever_pair = cyl.lever_pair;
+  }
+  sim.init();
+}
+
+std::string format_duration(double sec) {
+  char buf[64];
+  const long s = std::lround(sec);
+  if (s >= 3600)
+    std::snprintf(buf, sizeof buf, "%ldh%02ldm", s / 3600, (s / 60) % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%ldm%02lds", s / 60, s % 60);
+  return buf;
+}
+
+template <class Sim>
+std::string timing_summary(const Sim& sim, double total) {
+  std::ostringstream os;
+  for (int k = 0; k < static_cast<int>(Phase::count); ++k) {
+    const auto ph = static_cast<Phase>(k);
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "  %-10s %8.2f s  %5.1f %%\n", PhaseTimers::name(ph), sim.timers.seconds(ph),
+                  total > 0 ? 100.0 * sim.timers.seconds(ph) / total : 0.0);
+    os << buf;
+  }
+  os << "  neighbour-list builds: " << sim.neighbors().builds() << ", pairs listed: " << sim.neighbors().n_pairs()
+     << "\n";
+  return os.str();
+}
+
+std::vector<double> slice_edges(const DrumScene& s) {
+  const int ns = std::max(1, static_cast<int>(std::lround(s.length / s.profile_slice_width)));
+  std::vector<double> e(ns + 1);
+  for (int k = 0; k <= ns; ++k) e[k] = -0.5 * s.length + s.length * k / ns;
+  return e;
+}
+
+template <class Sim>
+void check_inside(const Sim& sim, const DrumScene& s) {
+  const double lim = 0.5 * s.diameter + 0.5;
+  for (std::size_t i = 0; i < sim.p.size(); ++i) {
+    const auto& x = sim.p.x[i];
+    if (x.x() * x.x() + x.z() * x.z() > lim * lim || (s.capped && std::abs(x.y()) > 0.5 * s.length + 0.5)) {
+      std::ostringstream os;
+      os << "simulation unstable at step " << sim.step_count << " (t = " << sim.time << "): particle id "
+         << sim.p.id[i] << " left the drum at (" << x.x() << ", " << x.y() << ", " << x.z()
+         << "). Reduce integrator.dt or check the wall parameters.";
+      throw UnstableError(os.str());
+    }
+  }
+}
+
+template <class Sim>
+RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress) {
+  const long total = s.steps_per(s.rotations);
+  const long every_snap = std::max(1L, s.steps_per(s.snapshot_every));
+  const long every_prof = std::max(1L, s.steps_per(s.profile_every));
+  const auto edges = slice_edges(s);
+  const double period = s.rotation_period();
+  auto observe = [&](bool final_step) {
+    ScopedPhase ph(sim.timers, Phase::observe);
+    if (sim.step_count % every_prof == 0 || final_step) {
+      check_inside(sim, s);
+      if (out) out->profile(sim.time, axial_small_fraction(sim.p, edges));
+    }
+    if (out && (sim.step_count % every_snap == 0 || final_step)) out->frame(sim.time, sim.step_count, sim.p);
+  };
+  if (out) out->init_profile(edges);
+  observe(false);
+  sim.timers.reset();
+  const auto t0 = std::chrono::steady_clock::now();
+  auto last_print = t0;
+  const long n = static_cast<long>(sim.p.size());
+  for (long k = 1; k <= total; ++k) {
+    sim.step();
+    const bool fin = k == total;
+    if (sim.step_count % every_prof == 0 || sim.step_count % every_snap == 0 || fin) observe(fin);
+    if (progress && (k % 200 == 0 || fin)) {
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last_print > std::chrono::milliseconds(500) || fin) {
+        last_print = now;
+        const double el = std::chrono::duration<double>(now - t0).count();
+        const double rate = el > 0 ? static_cast<double>(k) * n / el : 0.0;
+        std::fprintf(stderr, "\r  rotation %.2f / %.2f   %.3g particle-steps/s   %s left   ", sim.time / period,
+                     s.rotations, rate, format_duration(el / k * (total - k)).c_str());
+        std::fflush(stderr);
+      }
+    }
+  }
+  if (progress) std::fprintf(stderr, "\n");
+  RunReport r;
+  r.steps = total;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(total) * n / r.seconds : 0.0;
+  r.timing = timing_summary(sim, r.seconds);
+  return r;
+}
+
+}  // namespace
+
+DrumSim make_drum(const DrumScene& s) {
+  DrumSim sim;
+  if (s.capped)
+    sim.emplace<DrumCapped>();
+  else
+    sim.emplace<DrumPeriodic>();
+  std::visit([&](auto& v) { configure_common(v, s); }, sim);
+  return sim;
+}
+
+std::vector<double> axial_small_fraction(const ParticleStore<3>& p, const std::vector<double>& edges) {
+  const std::size_t ns = edges.size() - 1;
+  std::vector<double> small(ns, 0.0), all(ns, 0.0);
+  const double lo = edges.front(), width = (edges.back() - edges.front()) / ns;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    long k = static_cast<long>(std::floor((p.x[i].y() - lo) / width));
+    k = std::clamp<long>(k, 0, static_cast<long>(ns) - 1);
+    const double vol = p.d[i] * p.d[i] * p.d[i];
+    all[k] += vol;
+    if (p.species[i] == 0) small[k] += vol;
+  }
+  for (std::size_t k = 0; k < ns; ++k)
+    small[k] = all[k] > 0 ? small[k] / all[k] : std::numeric_limits<double>::quiet_NaN();
+  return small;
+}
+
+RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progress) {
+  return std::visit([&](auto& v) { return run_impl(s, v, out, progress); }, sim);
+}
+
+RunReport bench_drum(const DrumScene& s, double settle, double rotations) {
+  DrumScene a = s;
+  a.rotations = settle;
+  a.snapshot_every = a.profile_every = 1e9;
+  DrumSim sim = make_drum(a);
+  if (settle > 0) run_drum(a, sim, nullptr, false);
+  a.rotations = rotations;
+  return run_drum(a, sim, nullptr, false);
+}
+
+}  // namespace granular

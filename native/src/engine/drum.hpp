@@ -1,0 +1,44 @@
+// The drum scene as a simulation: the scene layer maps a DrumScene to one
+// concrete Simulation type (periodic or capped ends) held in a std::variant and
+// visited once; everything below the visit is statically typed.
+#pragma once
+#include <functional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "boundary/cylinder_wall.hpp"
+#include "boundary/end_caps.hpp"
+#include "contact/rapaport.hpp"
+#include "engine/simulation.hpp"
+#include "integrate/leapfrog.hpp"
+#include "io/h5_output.hpp"
+#include "scene/drum_scene.hpp"
+
+namespace granular {
+
+using DrumPeriodic = Simulation<3, RapaportLaw<3>, Leapfrog<3>, CylinderWall>;
+using DrumCapped = Simulation<3, RapaportLaw<3>, Leapfrog<3>, CylinderWall, EndCaps>;
+using DrumSim = std::variant<DrumPeriodic, DrumCapped>;
+
+DrumSim make_drum(const DrumScene& s);
+
+// Volume-weighted (d^3) fraction of small particles in axial slices with the
+// given edges along y; NaN for an empty slice.
+std::vector<double> axial_small_fraction(const ParticleStore<3>& p, const std::vector<double>& edges);
+
+struct RunReport {
+  long steps = 0;
+  double seconds = 0.0;
+  double particle_steps_per_second = 0.0;
+  std::string timing;  // where the time went, one line per phase
+};
+
+// Runs s.rotations rotations, writing frames and profiles to `out` (may be null).
+// `progress` = show a progress line on stderr.
+RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progress);
+
+// Settle for `settle` rotations, then time `rotations` rotations.
+RunReport bench_drum(const DrumScene& s, double settle, double rotations);
+
+}  // namespace granular

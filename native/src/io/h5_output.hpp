@@ -1,0 +1,81 @@
+// Output in the common HDF5 schema (docs/output_schema.md) that the native
+// engine, the LAMMPS case and the YADE case all write. Frames are appended to
+// datasets extendible along their first axis and the file is flushed after
+// every append, so a run that stops early keeps everything written so far.
+#pragma once
+#include <hdf5.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/particles.hpp"
+
+namespace granular {
+
+class H5Output {
+ public:
+  H5Output(const std::string& path, int dim, std::int64_t n_particles);
+  ~H5Output();
+  H5Output(const H5Output&) = delete;
+  H5Output& operator=(const H5Output&) = delete;
+
+  void attr(const std::string& name, const std::string& value);
+  void attr(const std::string& name, double value);
+  void attr(const std::string& name, std::int64_t value);
+  void group_attr(const std::string& group, const std::string& name, const std::vector<std::string>& values);
+
+  // One snapshot; particles are written in id order.
+  template <int Dim>
+  void frame(double time, long step, const ParticleStore<Dim>& p);
+
+  void init_profile(const std::vector<double>& edges);
+  void profile(double time, const std::vector<double>& small_fraction);
+
+  const std::string& path() const { return path_; }
+
+ private:
+  struct Appendable {
+    hid_t dset = -1;
+    std::vector<hsize_t> row;  // shape of one row (without the leading axis)
+    hid_t type = -1;
+    hsize_t rows = 0;
+  };
+  Appendable make(hid_t group, const char* name, hid_t type, std::vector<hsize_t> row);
+  void append(Appendable& a, const void* data);
+  void write_frame(double time, long step, const std::vector<std::int64_t>& id, const std::vector<std::int32_t>& sp,
+                   const std::vector<double>& d, const std::vector<double>& x, const std::vector<double>& v,
+                   const std::vector<double>& w);
+
+  std::string path_;
+  int dim_;
+  std::int64_t n_;
+  hid_t file_ = -1, frames_ = -1, profile_ = -1;
+  Appendable f_time_, f_step_, f_id_, f_species_, f_diam_, f_pos_, f_vel_, f_ang_;
+  Appendable p_time_, p_frac_;
+};
+
+template <int Dim>
+void H5Output::frame(double time, long step, const ParticleStore<Dim>& p) {
+  const std::size_t n = p.size();
+  std::vector<std::size_t> order(n);
+  for (std::size_t k = 0; k < n; ++k) order[static_cast<std::size_t>(p.id[k])] = k;  // ids are 0..n-1
+  constexpr int na = Space<Dim>::kAngDim;
+  std::vector<std::int64_t> id(n);
+  std::vector<std::int32_t> sp(n);
+  std::vector<double> d(n), x(n * Dim), v(n * Dim), w(n * na);
+  for (std::size_t q = 0; q < n; ++q) {
+    const std::size_t k = order[q];
+    id[q] = p.id[k];
+    sp[q] = p.species[k];
+    d[q] = p.d[k];
+    for (int c = 0; c < Dim; ++c) {
+      x[q * Dim + c] = p.x[k][c];
+      v[q * Dim + c] = p.v[k][c];
+    }
+    for (int c = 0; c < na; ++c) w[q * na + c] = p.w[k][c];
+  }
+  write_frame(time, step, id, sp, d, x, v, w);
+}
+
+}  // namespace granular

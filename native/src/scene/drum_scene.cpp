@@ -1,0 +1,162 @@
+#include "scene/drum_scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+namespace granular {
+
+double DrumScene::rotation_period() const { return 2.0 * M_PI / omega; }
+
+long DrumScene::steps_per(double rot) const { return std::lround(rot * rotation_period() / dt); }
+
+DrumScene read_drum_scene(SceneFile& f) {
+  DrumScene s;
+  f.choice("scene.kind", {"drum"});
+  s.name = f.text("scene.name");
+  s.description = f.text("scene.description", "");
+
+  s.length = f.positive("drum.length", f.number("drum.length"));
+  s.diameter = f.positive("drum.diameter", f.number("drum.diameter"));
+  s.omega = f.number("drum.omega");
+  if (s.omega == 0.0) f.fail("drum.omega", "must be non-zero (run lengths are counted in rotations)");
+  s.capped = f.choice("drum.ends", {"periodic", "capped"}) == "capped";
+  s.wall_diameter = f.positive("drum.wall_diameter", f.number("drum.wall_diameter", 1.0));
+  s.wall_lever = f.choice("drum.wall_spin_lever", {"paper", "pair"}, "paper");
+
+  s.fill_density = f.positive("particles.fill_density", f.number("particles.fill_density"));
+  s.small_diameter = f.positive("particles.small_diameter", f.number("particles.small_diameter", 1.0));
+  s.big_diameter = f.positive("particles.big_diameter", f.number("particles.big_diameter"));
+  s.diameter_spread = f.non_negative("particles.diameter_spread", f.number("particles.diameter_spread", 0.2));
+  if (s.diameter_spread >= std::min(s.small_diameter, s.big_diameter))
+    f.fail("particles.diameter_spread", "must be smaller than both nominal diameters");
+  s.fill_margin = f.non_negative("particles.fill_margin", f.number("particles.fill_margin", 1.0));
+  s.initial_speed = f.non_negative("particles.initial_speed", f.number("particles.initial_speed", 1.0));
+  s.initial_state = f.choice("particles.initial_state", {"mixed", "segregated_band", "segregated_halves"});
+  const long seed = f.integer("particles.seed", 1);
+  if (seed < 0) f.fail("particles.seed", "must be >= 0");
+  s.seed = static_cast<std::uint64_t>(seed);
+
+  s.law = f.choice("contact.law", {"rapaport"}, "rapaport");
+  s.gamma_n = f.non_negative("contact.gamma_n", f.number("contact.gamma_n", 5.0));
+  s.kappa = f.positive("contact.kappa", f.number("contact.kappa", 0.2));
+  s.mu_max = f.non_negative("contact.mu_max", f.number("contact.mu_max", 0.5));
+  s.gamma_s_bb = f.non_negative("friction.gamma_s_bb", f.number("friction.gamma_s_bb"));
+  s.gamma_s_ss = f.non_negative("friction.gamma_s_ss", f.number("friction.gamma_s_ss"));
+  s.gamma_s_bw = f.non_negative("friction.gamma_s_bw", f.number("friction.gamma_s_bw"));
+  s.gamma_s_sw = f.non_negative("friction.gamma_s_sw", f.number("friction.gamma_s_sw"));
+  s.gravity = f.non_negative("gravity.g", f.number("gravity.g", 5.0));
+
+  s.integrator = f.choice("integrator.kind", {"leapfrog"}, "leapfrog");
+  s.dt = f.positive("integrator.dt", f.number("integrator.dt", 0.005));
+  s.skin = f.positive("neighbor.skin", f.number("neighbor.skin", 0.4));
+
+  s.rotations = f.positive("run.rotations", f.number("run.rotations"));
+  s.snapshot_every = f.positive("run.snapshot_every", f.number("run.snapshot_every", 10.0));
+  s.profile_every = f.positive("run.profile_every", f.number("run.profile_every", 0.5));
+  s.profile_slice_width = f.positive("run.profile_slice_width", f.number("run.profile_slice_width", 1.0));
+  if (s.profile_slice_width > s.length) f.fail("run.profile_slice_width", "is wider than the drum");
+
+  s.paper_n = f.integer("paper.N", 0);
+  s.paper_rotations = f.number("paper.rotations", 0.0);
+  s.paper_bands = f.text("paper.bands", "");
+  f.text("paper.figure", "");
+  f.text("paper.note", "");
+
+  if (s.fill_margin >= 0.5 * s.diameter) f.fail("particles.fill_margin", "leaves no room inside the drum");
+  f.reject_unknown_keys();
+  return s;
+}
+
+namespace {
+
+// Reproducible uniform doubles in [0, 1) from a 64-bit Mersenne twister.
+struct Uniform {
+  std::mt19937_64 gen;
+  explicit Uniform(std::uint64_t seed) : gen(seed) {}
+  double operator()() { return static_cast<double>(gen() >> 11) * 0x1.0p-53; }
+};
+
+// fcc sites in the drum section y in [y0, y1] (see drum_scene.hpp), y wrapped
+// into [-L/2, L/2) when the drum is periodic.
+void fill_region(const DrumScene& s, double rho, double y0, double y1, bool margin_lo, bool margin_hi,
+                 std::vector<Eigen::Vector3d>& out) {
+  static const double basis[4][3] = {{0, 0, 0}, {0.5, 0.5, 0}, {0.5, 0, 0.5}, {0, 0.5, 0.5}};
+  const double a = std::cbrt(4.0 / rho);
+  const int nx = std::max(1, static_cast<int>(s.diameter / a));
+  const int ny = std::max(1, static_cast<int>((y1 - y0) / a));
+  const double ax = s.diameter / nx, ay = (y1 - y0) / ny;
+  const double rmax = 0.5 * s.diameter - s.fill_margin;
+  for (int j = 0; j < ny; ++j)
+    for (int k = 0; k < nx; ++k)
+      for (int i = 0; i < nx; ++i)
+        for (const auto& b : basis) {
+          const double x = (i + b[0] + 0.25) * ax - 0.5 * s.diameter;
+          const double z = (k + b[2] + 0.25) * ax - 0.5 * s.diameter;
+          double y = y0 + (j + b[1] + 0.25) * ay;
+          if (std::hypot(x, z) >= rmax) continue;
+          if (margin_lo && y - y0 <= s.fill_margin) continue;
+          if (margin_hi && y1 - y <= s.fill_margin) continue;
+          if (!s.capped && y >= 0.5 * s.length) y -= s.length;
+          out.emplace_back(x, y, z);
+        }
+}
+
+}  // namespace
+
+ParticleStore<3> drum_particles(const DrumScene& s) {
+  const double half = 0.5 * s.length;
+  // Segregated regions are filled with the same solid volume fraction: the big
+  // region at number density rho (d_small/d_big)^3. This reproduces Table I's N
+  // for runs V, W, X, Y (docs/drum_scenes.md).
+  const double rho_big = s.fill_density * std::pow(s.small_diameter / s.big_diameter, 3);
+  std::vector<Eigen::Vector3d> sites_small, sites_big, sites;
+  std::vector<int> species;
+  if (s.initial_state == "mixed") {
+    fill_region(s, s.fill_density, -half, half, s.capped, s.capped, sites);
+  } else if (s.initial_state == "segregated_band") {
+    // Small particles in the central band |y| < L/4, big ones elsewhere (#V, #W).
+    fill_region(s, s.fill_density, -0.5 * half, 0.5 * half, true, true, sites_small);
+    fill_region(s, rho_big, 0.5 * half, 1.5 * half, true, true, sites_big);
+    if (s.capped) {  // a band between caps: the big region is two pieces
+      sites_big.clear();
+      fill_region(s, rho_big, -half, -0.5 * half, true, true, sites_big);
+      fill_region(s, rho_big, 0.5 * half, half, true, true, sites_big);
+    }
+  } else {  // segregated_halves: small in y < 0, big in y > 0 (#X, #Y)
+    fill_region(s, s.fill_density, -half, 0.0, true, true, sites_small);
+    fill_region(s, rho_big, 0.0, half, true, true, sites_big);
+  }
+
+  Uniform rnd(s.seed);
+  if (s.initial_state == "mixed") {
+    // Equal numbers of each species, assigned at random (Sec. IV).
+    if (sites.size() % 2 == 1) sites.erase(sites.begin() + static_cast<long>(rnd() * sites.size()));
+    std::vector<std::size_t> order(sites.size());
+    std::iota(order.begin(), order.end(), 0);
+    for (std::size_t k = order.size(); k > 1; --k) std::swap(order[k - 1], order[static_cast<std::size_t>(rnd() * k)]);
+    species.assign(sites.size(), 0);
+    for (std::size_t k = 0; k < order.size() / 2; ++k) species[order[k]] = 1;
+  } else {
+    sites = sites_small;
+    sites.insert(sites.end(), sites_big.begin(), sites_big.end());
+    species.assign(sites_small.size(), 0);
+    species.insert(species.end(), sites_big.size(), 1);
+  }
+
+  ParticleStore<3> p;
+  for (std::size_t k = 0; k < sites.size(); ++k) {
+    const double nominal = species[k] == 1 ? s.big_diameter : s.small_diameter;
+    const double d = nominal - s.diameter_spread * rnd();  // uniform in [d - 0.2, d] (Sec. IV)
+    const double m = d * d * d;                            // m_i = d_i^3 (Sec. III)
+    const double inertia = 0.5 * s.kappa * m * d * d;      // I = kappa m d^2 / 2 (see rapaport.hpp)
+    // Random direction, fixed speed.
+    const double cz = 2.0 * rnd() - 1.0, phi = 2.0 * M_PI * rnd(), sz = std::sqrt(1.0 - cz * cz);
+    const Eigen::Vector3d v = s.initial_speed * Eigen::Vector3d(sz * std::cos(phi), sz * std::sin(phi), cz);
+    p.add(sites[k], v, Eigen::Vector3d::Zero(), d, m, inertia, species[k]);
+  }
+  return p;
+}
+
+}  // namespace granular
