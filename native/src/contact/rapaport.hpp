@@ -39,17 +39,17 @@ struct RapaportLaw {
   std::array<Friction, kSpecies> wall{};            // [c_i]
 
   // Interaction range for particles (or particle and wall) of diameters d_i, d_j.
-  static double range(double di, double dj) { return kCutFactor * 0.5 * (di + dj); }
+  GRANULAR_INLINE static double range(double di, double dj) { return kCutFactor * 0.5 * (di + dj); }
 
   // Eq. (1) + Eq. (2): the signed magnitude of f_n along r^ (positive pushes apart).
-  static double normal(double inv_r, double dij, double vn, double gamma_n) {
+  GRANULAR_INLINE static double normal(double inv_r, double dij, double vn, double gamma_n) {
     const double s2 = dij * dij * inv_r * inv_r;
     const double s6 = s2 * s2 * s2;
     return 48.0 * inv_r * s6 * (s6 - 0.5) - gamma_n * vn;
   }
 
   // Eq. (4)/(5): f_s = -min(gamma_s |v_s|, mu |f_n|) v^_s.
-  static V sliding(const V& vs, const Friction& fr, double fn) {
+  GRANULAR_INLINE static V sliding(const V& vs, const Friction& fr, double fn) {
     const double vs2 = vs.squaredNorm();
     if (vs2 == 0.0) return V::Zero();
     const double vabs = std::sqrt(vs2);
@@ -64,7 +64,7 @@ struct RapaportLaw {
   };
 
   // dr = r_i - r_j after minimum image, r2 = |dr|^2 < range(d_i, d_j)^2.
-  PairResult pair_force(const V& dr, double r2, double di, double dj, const V& vij, const A& wi, const A& wj,
+  GRANULAR_INLINE PairResult pair_force(const V& dr, double r2, double di, double dj, const V& vij, const A& wi, const A& wj,
                         int ci, int cj) const {
     const double inv_r = 1.0 / std::sqrt(r2);
     const V n = dr * inv_r;
@@ -86,7 +86,7 @@ struct RapaportLaw {
   // contact point to the particle, |rp| < range(d_i, d_w); d_iw = (d_i + d_w)/2;
   // viw = v_i - Omega s; lever multiplies w_i in the sliding velocity
   // (the paper writes w_i x r'_iw, i.e. lever = r'_iw).
-  WallResult wall_force(const V& rp, double di, double d_iw, const V& viw, const A& wi, const V& lever,
+  GRANULAR_INLINE WallResult wall_force(const V& rp, double di, double d_iw, const V& viw, const A& wi, const V& lever,
                         int ci) const {
     const double inv_r = 1.0 / rp.norm();
     const V n = rp * inv_r;

@@ -5,6 +5,10 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+// Contact-law kernels are small and called once per contact: force inlining
+// so that the pair loop is one flat function.
+#define GRANULAR_INLINE inline __attribute__((always_inline))
+
 namespace granular {
 
 template <int Dim>

@@ -58,22 +58,24 @@ class CellList {
     for (std::size_t k = 0; k < sorted_.size(); ++k) sorted_[k] = static_cast<std::uint32_t>(k);
   }
 
-  // The distinct cells adjacent to (and including) cell c, with periodic wrap.
-  int stencil(int c, std::array<int, 27>& out) const {
+  // Half stencil of cell c: c itself plus the adjacent cells whose offset is
+  // lexicographically positive, with periodic wrap. Visiting (c, c') for c' in
+  // half_stencil(c) meets every pair of adjacent cells exactly once (periodic
+  // axes have >= 3 cells or are collapsed to 1). Returns the count; out[0] = c.
+  int half_stencil(int c, std::array<int, 14>& out) const {
     std::array<int, Dim> ci{};
     for (int k = 0; k < Dim; ++k) ci[k] = (c / stride_[k]) % n_[k];
     int count = 0;
-    std::array<int, Dim> off{};
     const int total = Dim == 3 ? 27 : 9;
-    for (int s = 0; s < total; ++s) {
+    for (int s = total / 2; s < total; ++s) {  // s = 13 (3D) / 4 (2D) is the zero offset
       int t = s;
       bool ok = true;
       int idx = 0;
       for (int k = 0; k < Dim; ++k) {
-        off[k] = t % 3 - 1;
+        const int off = t % 3 - 1;
         t /= 3;
-        if (n_[k] == 1 && off[k] != 0) { ok = false; break; }
-        int q = ci[k] + off[k];
+        if (n_[k] == 1 && off != 0) { ok = false; break; }
+        int q = ci[k] + off;
         if (q < 0 || q >= n_[k]) {
           if (!periodic_[k]) { ok = false; break; }
           q = (q + n_[k]) % n_[k];

@@ -40,14 +40,15 @@ class NeighborList {
       const int t = omp_get_thread_num();
       auto& out = local[t];
       out.clear();
-      std::array<int, 27> st{};
+      std::array<int, 14> st{};
       const auto [lo, hi] = thread_block(n, nt, t);
       for (std::size_t i = lo; i < hi; ++i) {
-        const int ns = cells_.stencil(cells_.cell_of(i), st);
+        const int ns = cells_.half_stencil(cells_.cell_of(i), st);
         const V xi = p.x[i];
         const double di = p.d[i];
         for (int s = 0; s < ns; ++s) {
-          const std::uint32_t b = std::max<std::uint32_t>(cells_.begin(st[s]), static_cast<std::uint32_t>(i + 1));
+          // Own cell: only j > i; forward cells: all of them.
+          const std::uint32_t b = s == 0 ? static_cast<std::uint32_t>(i + 1) : cells_.begin(st[s]);
           const std::uint32_t e = cells_.end(st[s]);
           for (std::uint32_t j = b; j < e; ++j) {
             const double rc = range(di, p.d[j]) + skin;
