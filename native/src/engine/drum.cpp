@@ -96,17 +96,25 @@ void check_inside(const Sim& sim, const DrumScene& s) {
 template <class Sim>
 RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress) {
   const long total = s.steps_per(s.rotations);
-  const long every_snap = std::max(1L, s.steps_per(s.snapshot_every));
-  const long every_prof = std::max(1L, s.steps_per(s.profile_every));
   const auto edges = slice_edges(s);
   const double period = s.rotation_period();
+  // Output times are multiples of the interval in rotations, each rounded to
+  // the nearest step, so they do not drift; the final state is always written.
+  long snap_k = 0, prof_k = 0;
+  auto due = [&](long& k, double every) {
+    if (sim.step_count < s.steps_per(k * every)) return false;
+    while (s.steps_per(k * every) <= sim.step_count) ++k;
+    return true;
+  };
   auto observe = [&](bool final_step) {
     ScopedPhase ph(sim.timers, Phase::observe);
-    if (sim.step_count % every_prof == 0 || final_step) {
+    const bool prof = due(prof_k, s.profile_every) || final_step;
+    const bool snap = due(snap_k, s.snapshot_every) || final_step;
+    if (prof) {
       check_inside(sim, s);
       if (out) out->profile(sim.time, axial_small_fraction(sim.p, edges));
     }
-    if (out && (sim.step_count % every_snap == 0 || final_step)) out->frame(sim.time, sim.step_count, sim.p);
+    if (out && snap) out->frame(sim.time, sim.step_count, sim.p);
   };
   if (out) out->init_profile(edges);
   observe(false);
@@ -117,7 +125,7 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress) {
   for (long k = 1; k <= total; ++k) {
     sim.step();
     const bool fin = k == total;
-    if (sim.step_count % every_prof == 0 || sim.step_count % every_snap == 0 || fin) observe(fin);
+    observe(fin);
     if (progress && (k % 200 == 0 || fin)) {
       const auto now = std::chrono::steady_clock::now();
       if (now - last_print > std::chrono::milliseconds(500) || fin) {
@@ -156,8 +164,12 @@ std::vector<double> axial_small_fraction(const ParticleStore<3>& p, const std::v
   std::vector<double> small(ns, 0.0), all(ns, 0.0);
   const double lo = edges.front(), width = (edges.back() - edges.front()) / ns;
   for (std::size_t i = 0; i < p.size(); ++i) {
-    long k = static_cast<long>(std::floor((p.x[i].y() - lo) / width));
+    const double y = p.x[i].y();
+    long k = static_cast<long>(std::floor((y - lo) / width));
     k = std::clamp<long>(k, 0, static_cast<long>(ns) - 1);
+    // Settle rounding at the edges exactly: edges[k] <= y < edges[k+1].
+    if (k > 0 && y < edges[k]) --k;
+    if (k + 1 < static_cast<long>(ns) && y >= edges[k + 1]) ++k;
     const double vol = p.d[i] * p.d[i] * p.d[i];
     all[k] += vol;
     if (p.species[i] == 0) small[k] += vol;

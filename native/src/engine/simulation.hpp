@@ -177,12 +177,12 @@ class Simulation {
       if (s > worst_v) { worst = i; worst_v = s; }
     }
     std::ostringstream os;
-    os << "simulation unstable at step " << step_count + 1 << " (t = " << time + integrator.dt << "): particle id "
+    os << "simulation unstable (or time step too large) at step " << step_count + 1 << " (t = " << time + integrator.dt << "): particle id "
        << p.id[worst] << " ";
     if (!std::isfinite(worst_v) || !std::isfinite(p.x[worst].squaredNorm()))
       os << "has a non-finite position or velocity";
     else
-      os << "moved " << std::sqrt(worst_v) * integrator.dt << " in one step (limit " << lim
+      os << "moved " << std::sqrt(worst_v) * integrator.dt << " in one step, more than the neighbour list allows (" << lim
          << " = skin/2); speed " << std::sqrt(worst_v);
     os << ". Reduce integrator.dt or check the contact parameters.";
     throw UnstableError(os.str());
