@@ -141,6 +141,7 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress) {
   if (progress) std::fprintf(stderr, "\n");
   RunReport r;
   r.steps = total;
+  r.particles = n;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(total) * n / r.seconds : 0.0;
   r.timing = timing_summary(sim, r.seconds);

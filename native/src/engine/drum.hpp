@@ -29,6 +29,7 @@ std::vector<double> axial_small_fraction(const ParticleStore<3>& p, const std::v
 
 struct RunReport {
   long steps = 0;
+  long particles = 0;
   double seconds = 0.0;
   double particle_steps_per_second = 0.0;
   std::string timing;  // where the time went, one line per phase

@@ -60,7 +60,7 @@ class Simulation {
       st = first_half_all();
     }
     check_stable(st);
-    if (st.max_disp2 > 0.25 * skin * skin) {
+    if (!(st.disp_bound() <= skin)) {
       ScopedPhase ph(timers, Phase::neighbor);
       rebuild();
     }
@@ -160,7 +160,8 @@ class Simulation {
     typename Integrator::DriftStats st;
     for (const auto& s : per) {
       if (!(s.max_step2 <= st.max_step2)) st.max_step2 = s.max_step2;
-      if (!(s.max_disp2 <= st.max_disp2)) st.max_disp2 = s.max_disp2;
+      if (!(s.next_disp2 <= st.next_disp2)) st.push_disp(s.next_disp2);
+      if (!(s.max_disp2 <= st.next_disp2)) st.push_disp(s.max_disp2);
     }
     return st;
   }
