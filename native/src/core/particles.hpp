@@ -41,28 +41,40 @@ struct ParticleStore {
     id.push_back(static_cast<std::int64_t>(id.size()));
   }
 
-  // Permute every column: new[k] = old[perm[k]]. Applied after a cell sort so that
-  // particles close in space are close in memory.
-  void reorder(const std::vector<std::uint32_t>& perm) {
-    permute(x, perm);
-    permute(v, perm);
-    permute(w, perm);
-    permute(f, perm);
-    permute(tq, perm);
-    permute(d, perm);
-    permute(inv_m, perm);
-    permute(inv_i, perm);
-    permute(species, perm);
-    permute(id, perm);
+  // Permute every column: new[k] = old[perm[k]]. Applied after a cell sort so
+  // that particles close in space are close in memory. Called inside an OpenMP
+  // parallel region by every thread with its own block [lo, hi): each thread
+  // writes only its own block, so the data it integrates next stays in its cache.
+  void reorder_in_parallel(const std::vector<std::uint32_t>& perm, std::size_t lo, std::size_t hi) {
+    permute(x, scratch_v_, perm, lo, hi);
+    permute(v, scratch_v_, perm, lo, hi);
+    permute(f, scratch_v_, perm, lo, hi);
+    permute(w, scratch_a_, perm, lo, hi);
+    permute(tq, scratch_a_, perm, lo, hi);
+    permute(d, scratch_d_, perm, lo, hi);
+    permute(inv_m, scratch_d_, perm, lo, hi);
+    permute(inv_i, scratch_d_, perm, lo, hi);
+    permute(species, scratch_s_, perm, lo, hi);
+    permute(id, scratch_id_, perm, lo, hi);
   }
 
  private:
   template <class T>
-  static void permute(std::vector<T>& col, const std::vector<std::uint32_t>& perm) {
-    std::vector<T> out(col.size());
-    for (std::size_t k = 0; k < perm.size(); ++k) out[k] = col[perm[k]];
-    col.swap(out);
+  static void permute(std::vector<T>& col, std::vector<T>& scratch, const std::vector<std::uint32_t>& perm,
+                      std::size_t lo, std::size_t hi) {
+#pragma omp single
+    scratch.resize(col.size());
+    for (std::size_t k = lo; k < hi; ++k) scratch[k] = col[perm[k]];
+#pragma omp barrier
+#pragma omp single
+    col.swap(scratch);
   }
+
+  std::vector<V> scratch_v_;
+  std::vector<A> scratch_a_;
+  std::vector<double> scratch_d_;
+  std::vector<std::int32_t> scratch_s_;
+  std::vector<std::int64_t> scratch_id_;
 };
 
 }  // namespace granular

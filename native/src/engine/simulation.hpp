@@ -81,27 +81,35 @@ class Simulation {
     nl_.build(p, box, max_range_, skin, [](double a, double b) { return Law::range(a, b); });
   }
 
-  // Pair contacts into per-thread buffers (thread 0 writes p.f directly),
-  // reduced in thread order, then wall contacts per particle.
+  // Pair contacts into per-thread buffers, reduced in thread order (so the
+  // result is bitwise repeatable for a thread count), then wall contacts per
+  // particle. A thread zeroes and a reducer reads only the chunks of a buffer
+  // that its owner writes, so little data crosses between cores.
   void compute_forces() {
     const std::size_t n = p.size();
     const int nt = omp_get_max_threads();
-    if (static_cast<int>(fbuf_.size()) != nt - 1 || (nt > 1 && fbuf_[0].size() != n)) {
-      fbuf_.assign(nt - 1, std::vector<V>(n));
-      tbuf_.assign(nt - 1, std::vector<A>(n));
+    if (nt != nl_.threads()) rebuild();  // the thread count changed since the last build
+    if (static_cast<int>(fbuf_.size()) != nt || fbuf_[0].size() != n) {
+      fbuf_.assign(nt, std::vector<V>(n));
+      tbuf_.assign(nt, std::vector<A>(n));
     }
+    constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
+    const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
     auto t_pairs = PhaseTimers::Clock::now();
     PhaseTimers::Clock::time_point t_walls;
 #pragma omp parallel num_threads(nt)
     {
       const int t = omp_get_thread_num();
-      V* F = t == 0 ? p.f.data() : fbuf_[t - 1].data();
-      A* T = t == 0 ? p.tq.data() : tbuf_[t - 1].data();
-      for (std::size_t i = 0; i < n; ++i) {
-        F[i].setZero();
-        T[i].setZero();
-      }
+      V* F = fbuf_[t].data();
+      A* T = tbuf_[t].data();
+      for (std::size_t c = 0; c < n_chunks; ++c)
+        if (nl_.touched(t, c))
+          for (std::size_t i = c * kChunk, e = std::min(n, i + kChunk); i < e; ++i) {
+            F[i].setZero();
+            T[i].setZero();
+          }
       const auto [lo, hi] = thread_block(n, nt, t);
+      const std::uint32_t* col = nl_.col(t);
       for (std::size_t i = lo; i < hi; ++i) {
         const V xi = p.x[i], vi = p.v[i];
         const A wi = p.w[i];
@@ -109,8 +117,8 @@ class Simulation {
         const int ci = p.species[i];
         V fi = V::Zero();
         A ti = A::Zero();
-        for (std::size_t k = nl_.begin(i); k < nl_.end(i); ++k) {
-          const std::uint32_t j = nl_[k];
+        for (std::uint32_t k = nl_.begin(i), ke = nl_.end(i); k < ke; ++k) {
+          const std::uint32_t j = col[k];
           const V dr = box.min_image(xi - p.x[j]);
           const double r2 = dr.squaredNorm();
           const double rc = Law::range(di, p.d[j]);
@@ -125,11 +133,20 @@ class Simulation {
         T[i] += ti;
       }
 #pragma omp barrier
-      for (int u = 1; u < nt; ++u)
-        for (std::size_t i = lo; i < hi; ++i) {
-          p.f[i] += fbuf_[u - 1][i];
-          p.tq[i] += tbuf_[u - 1][i];
+      for (std::size_t i = lo; i < hi;) {
+        const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
+        for (std::size_t q = i; q < e; ++q) {
+          p.f[q].setZero();
+          p.tq[q].setZero();
         }
+        for (int u = 0; u < nt; ++u)
+          if (nl_.touched(u, c))
+            for (std::size_t q = i; q < e; ++q) {
+              p.f[q] += fbuf_[u][q];
+              p.tq[q] += tbuf_[u][q];
+            }
+        i = e;
+      }
 #pragma omp barrier
 #pragma omp master
       t_walls = PhaseTimers::Clock::now();

@@ -1,6 +1,6 @@
-// Half Verlet list in CSR form (row_start / col), after ExaMiniMD's NeighListCSR.
-// Pair (i, j) with j > i is listed if |r_ij| < range(d_i, d_j) + skin. The list
-// stays valid until some particle has moved more than skin/2 since the build.
+// Half Verlet list in CSR form (row offsets / columns), after ExaMiniMD's
+// NeighListCSR. Each pair within range(d_i, d_j) + skin is listed once. The list
+// stays valid until two particles can have closed the skin (see leapfrog.hpp).
 #pragma once
 #include <omp.h>
 
@@ -19,30 +19,44 @@ template <int Dim>
 class NeighborList {
  public:
   using V = Vec<Dim>;
+  // Granularity at which a thread records which particles' force entries it
+  // writes, so that only those are zeroed and reduced.
+  static constexpr std::size_t kChunk = 64;
 
   // Sorts the store by cell (reorder), then lists pairs. RangeFn(d_i, d_j) is
-  // the contact law's interaction range; a template, so it inlines.
+  // the contact law's interaction range; a template, so it inlines. Thread t
+  // owns the rows of its block thread_block(n, nt, t) and keeps them in its own
+  // column array, so nothing is copied between threads.
   template <class RangeFn>
   void build(ParticleStore<Dim>& p, const Box<Dim>& box, double max_range, double skin, RangeFn range) {
     skin_ = skin;
     cells_.set_box(box);
     cells_.build(box, p.x, max_range + skin);
-    p.reorder(cells_.sorted());
+    const auto perm = cells_.sorted();
     cells_.set_identity_order();
 
     const std::size_t n = p.size();
-    row_start_.assign(n + 1, 0);
-    const int nt = omp_get_max_threads();
-    std::vector<std::vector<std::uint32_t>> local(nt);
-    std::vector<std::size_t> first(nt + 1, 0), last(nt, 0);
-#pragma omp parallel
+    nt_ = omp_get_max_threads();
+    col_.resize(nt_);
+    touched_.resize(nt_);
+    row_begin_.resize(n);
+    row_end_.resize(n);
+    x_ref_.resize(n);
+    const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
+#pragma omp parallel num_threads(nt_)
     {
       const int t = omp_get_thread_num();
-      auto& out = local[t];
+      const auto [lo, hi] = thread_block(n, nt_, t);
+      p.reorder_in_parallel(perm, lo, hi);
+#pragma omp barrier
+      auto& out = col_[t];
+      auto& mark = touched_[t];
       out.clear();
+      mark.assign(n_chunks, 0);
       std::array<int, 14> st{};
-      const auto [lo, hi] = thread_block(n, nt, t);
       for (std::size_t i = lo; i < hi; ++i) {
+        row_begin_[i] = static_cast<std::uint32_t>(out.size());
+        mark[i / kChunk] = 1;
         const int ns = cells_.half_stencil(cells_.cell_of(i), st);
         const V xi = p.x[i];
         const double di = p.d[i];
@@ -52,30 +66,31 @@ class NeighborList {
           const std::uint32_t e = cells_.end(st[s]);
           for (std::uint32_t j = b; j < e; ++j) {
             const double rc = range(di, p.d[j]) + skin;
-            if (box.min_image(xi - p.x[j]).squaredNorm() < rc * rc) out.push_back(j);
+            if (box.min_image(xi - p.x[j]).squaredNorm() < rc * rc) {
+              out.push_back(j);
+              mark[j / kChunk] = 1;
+            }
           }
         }
-        row_start_[i + 1] = out.size();  // local count so far; fixed below
+        row_end_[i] = static_cast<std::uint32_t>(out.size());
+        x_ref_[i] = p.x[i];
       }
     }
-    // Rows of thread t are the contiguous block thread_block(t), so
-    // concatenating in thread order gives a deterministic CSR.
-    col_.clear();
-    for (int t = 0; t < nt; ++t) {
-      const std::size_t base = col_.size();
-      const auto [lo, hi] = thread_block(n, nt, t);
-      for (std::size_t i = lo; i < hi; ++i) row_start_[i + 1] += base;
-      col_.insert(col_.end(), local[t].begin(), local[t].end());
-    }
-    row_start_[0] = 0;
-    x_ref_ = p.x;
     ++builds_;
   }
 
-  std::size_t begin(std::size_t i) const { return row_start_[i]; }
-  std::size_t end(std::size_t i) const { return row_start_[i + 1]; }
-  std::uint32_t operator[](std::size_t k) const { return col_[k]; }
-  std::size_t n_pairs() const { return col_.size(); }
+  int threads() const { return nt_; }
+  // Row i (owned by thread t): col(t)[begin(i) .. end(i)).
+  const std::uint32_t* col(int t) const { return col_[t].data(); }
+  std::uint32_t begin(std::size_t i) const { return row_begin_[i]; }
+  std::uint32_t end(std::size_t i) const { return row_end_[i]; }
+  // Whether thread t writes force entries in chunk c (particles c*kChunk ...).
+  bool touched(int t, std::size_t c) const { return touched_[t][c] != 0; }
+  std::size_t n_pairs() const {
+    std::size_t k = 0;
+    for (const auto& c : col_) k += c.size();
+    return k;
+  }
   double skin() const { return skin_; }
   long builds() const { return builds_; }
   const std::vector<V>& reference_positions() const { return x_ref_; }
@@ -83,19 +98,24 @@ class NeighborList {
   // Pairs as (id_i, id_j) with id_i < id_j, sorted: for comparison with the oracle.
   std::vector<std::pair<std::int64_t, std::int64_t>> pairs_by_id(const ParticleStore<Dim>& p) const {
     std::vector<std::pair<std::int64_t, std::int64_t>> out;
-    for (std::size_t i = 0; i + 1 < row_start_.size(); ++i)
-      for (std::size_t k = begin(i); k < end(i); ++k) {
-        auto a = p.id[i], b = p.id[col_[k]];
-        out.emplace_back(std::min(a, b), std::max(a, b));
-      }
+    for (int t = 0; t < nt_; ++t) {
+      const auto [lo, hi] = thread_block(p.size(), nt_, t);
+      for (std::size_t i = lo; i < hi; ++i)
+        for (std::uint32_t k = begin(i); k < end(i); ++k) {
+          const auto a = p.id[i], b = p.id[col_[t][k]];
+          out.emplace_back(std::min(a, b), std::max(a, b));
+        }
+    }
     std::sort(out.begin(), out.end());
     return out;
   }
 
  private:
   CellList<Dim> cells_;
-  std::vector<std::size_t> row_start_;
-  std::vector<std::uint32_t> col_;
+  int nt_ = 1;
+  std::vector<std::vector<std::uint32_t>> col_;
+  std::vector<std::vector<std::uint8_t>> touched_;
+  std::vector<std::uint32_t> row_begin_, row_end_;
   std::vector<V> x_ref_;
   double skin_ = 0.0;
   long builds_ = 0;
