@@ -40,13 +40,13 @@ Outcome reference(double d1, double d2, double v0, double gamma_n) {
   }
 }
 
-Outcome engine(double d1, double d2, double v0, double gamma_n, double dt) {
+Outcome engine(double d1, double d2, double v0, double gamma_n, double dt, double gap = 1e-3) {
   FreeSim sim;
   open_box(sim, 20.0);
   sim.law = Law3::from_paper(gamma_n, 10, 2, 10, 2, 0.5);
   sim.integrator.dt = dt;
   const double rc = Law3::range(d1, d2);
-  const double gap = 1e-3;  // start just outside the range, approaching
+  // start just outside the range (by gap), approaching
   const double m1 = d1 * d1 * d1, m2 = d2 * d2 * d2;
   // Centre-of-mass frame: p1 = -p2.
   const double v1 = v0 * m2 / (m1 + m2), v2 = -v0 * m1 / (m1 + m2);
@@ -103,17 +103,45 @@ TEST(Collision, WithoutDampingIsElastic) {
   EXPECT_NEAR(got.restitution, 1.0, 1e-6);
 }
 
-// At the production step (dt = 0.005) the leapfrog's velocity-dependent forces
-// are evaluated with half-kicked velocities; the error is first order in dt.
-// Bound it, so a regression in the integrator shows up, and record it.
-TEST(Collision, ProductionStepErrorIsSmall) {
+// Accuracy against the step size. The damping force of Eq. (2) switches on
+// and off discontinuously at the cutoff, and velocity-dependent forces are
+// evaluated with the half-kicked velocity (Rapaport's leapfrog), so the error
+// is first order in dt with a coefficient that depends on where in a step the
+// contact begins and ends. Averaged over 16 entry phases, the error must fall
+// at least 1.6-fold per halving of dt (measured 1.7-2.3). At the production
+// step dt = 0.005 the restitution error was measured at 2.8 % on average and
+// 7.6 % for the worst phase, the duration error at 0.7 % and 1.1 %
+// (docs/accuracy.md); the bounds below sit about 20 % above those figures, to
+// flag a regression of the integrator, not to describe the model.
+TEST(Collision, ConvergesWithStep) {
   omp_set_num_threads(1);
   const auto ref = reference(1.0, 1.0, 1.0, 5.0);
-  const auto got = engine(1.0, 1.0, 1.0, 5.0, 0.005);
-  RecordProperty("restitution_rel_error_dt0.005", std::to_string(std::abs(got.restitution / ref.restitution - 1)));
-  RecordProperty("duration_rel_error_dt0.005", std::to_string(std::abs(got.duration / ref.duration - 1)));
-  std::printf("dt=0.005: restitution %.6f (ref %.6f), duration %.6f (ref %.6f)\n", got.restitution, ref.restitution,
-              got.duration, ref.duration);
-  EXPECT_NEAR(got.restitution, ref.restitution, 0.05 * ref.restitution);
-  EXPECT_NEAR(got.duration, ref.duration, 0.05 * ref.duration);
+  double prev_e = 0.0, prev_t = 0.0;
+  for (double dt : {0.01, 0.005, 0.0025, 0.00125, 0.000625}) {
+    double sum_e = 0, sum_t = 0, max_e = 0, max_t = 0;
+    const int phases = 16;
+    for (int k = 0; k < phases; ++k) {
+      const auto got = engine(1.0, 1.0, 1.0, 5.0, dt, dt * (k + 0.5) / phases);
+      const double err_e = std::abs(got.restitution / ref.restitution - 1);
+      const double err_t = std::abs(got.duration / ref.duration - 1);
+      sum_e += err_e / phases;
+      sum_t += err_t / phases;
+      max_e = std::max(max_e, err_e);
+      max_t = std::max(max_t, err_t);
+    }
+    std::printf("dt=%-9g restitution error mean %.2e max %.2e   duration error mean %.2e max %.2e\n", dt, sum_e,
+                max_e, sum_t, max_t);
+    if (dt == 0.005) {
+      EXPECT_LT(sum_e, 0.034);
+      EXPECT_LT(max_e, 0.09);
+      EXPECT_LT(sum_t, 0.008);
+      EXPECT_LT(max_t, 0.014);
+    }
+    if (prev_e > 0) {
+      EXPECT_GT(prev_e / sum_e, 1.6) << "dt " << dt;
+      EXPECT_GT(prev_t / sum_t, 1.6) << "dt " << dt;
+    }
+    prev_e = sum_e;
+    prev_t = sum_t;
+  }
 }
