@@ -78,7 +78,7 @@ int main(int argc, char** argv) {
   info->add_flag("--json", as_json, "print JSON");
 
   std::vector<int> bench_threads;
-  double settle = 0.25, bench_rot = 1.0;
+  double settle = 0.5, bench_rot = 1.0;
   auto* bench = app.add_subcommand("bench", "particle-steps per second for a drum scene");
   bench->add_option("scene", scene_path, "scene file (TOML)")->required();
   bench->add_option("--set", sets, "override a scene key: key=value (repeatable)");

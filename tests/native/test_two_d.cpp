@@ -1,0 +1,68 @@
+// The engine is templated on the dimension: the same particle store, neighbour
+// list, contact law and integrator run in 2D (the shaken box will). A head-on
+// collision is the same one-dimensional problem in 2D and 3D, so it must give
+// the same restitution; the 2D neighbour list must match the oracle.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "contact/rapaport.hpp"
+#include "engine/simulation.hpp"
+#include "integrate/leapfrog.hpp"
+
+using namespace granular;
+
+namespace {
+
+using Sim2 = Simulation<2, RapaportLaw<2>, Leapfrog<2>>;
+using Sim3 = Simulation<3, RapaportLaw<3>, Leapfrog<3>>;
+
+template <class Sim>
+double restitution(double dt) {
+  Sim sim;
+  using V = Vec<Sim::kDim>;
+  using A = Ang<Sim::kDim>;
+  sim.box.lo = V::Constant(-10);
+  sim.box.hi = V::Constant(10);
+  sim.box.finalize();
+  sim.law = RapaportLaw<Sim::kDim>::from_paper(5.0, 10, 2, 10, 2, 0.5);
+  sim.integrator.dt = dt;
+  V x = V::Zero(), v = V::Zero();
+  x[0] = -0.57;
+  v[0] = 0.5;
+  sim.p.add(x, v, A::Zero(), 1.0, 1.0, 0.1, 0);
+  sim.p.add(-x, -v, A::Zero(), 1.0, 1.0, 0.1, 0);
+  sim.init();
+  for (int k = 0; k < 20000; ++k) sim.step();
+  const auto a = sim.p.id[0] == 0 ? 0 : 1;
+  return (sim.p.v[1 - a][0] - sim.p.v[a][0]) / 1.0;
+}
+
+}  // namespace
+
+TEST(TwoD, HeadOnCollisionSameAsIn3D) {
+  omp_set_num_threads(1);
+  const double e2 = restitution<Sim2>(1e-4), e3 = restitution<Sim3>(1e-4);
+  EXPECT_GT(e2, 0.1);
+  EXPECT_EQ(e2, e3);  // identical arithmetic along x
+}
+
+TEST(TwoD, NeighborListMatchesOracle) {
+  omp_set_num_threads(2);
+  Sim2 sim;
+  sim.box.lo = Eigen::Vector2d(0, 0);
+  sim.box.hi = Eigen::Vector2d(40, 30);
+  sim.box.periodic = {true, false};
+  sim.box.finalize();
+  std::mt19937_64 gen(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 900; ++i)
+    sim.p.add(Eigen::Vector2d(40 * u(gen), 30 * u(gen)), Eigen::Vector2d::Zero(), Ang<2>::Zero(), 0.8 + 0.5 * u(gen),
+              1.0, 0.1, i % 2);
+  sim.skin = 0.3;
+  sim.init();
+  auto range = [](double a, double b) { return RapaportLaw<2>::range(a, b); };
+  const auto oracle = brute_force_pairs(sim.p, sim.box, 0.3, range);
+  ASSERT_GT(oracle.size(), 100u);
+  EXPECT_EQ(sim.neighbors().pairs_by_id(sim.p), oracle);
+}
