@@ -22,8 +22,7 @@ CylSim drum(double omega, const std::string& lever = "paper") {
   auto& w = std::get<CylinderWall>(sim.walls);
   w.diameter = kD;
   w.omega = omega;
-  w.lever_paper = lever == "paper" ? 1.0 : 0.0;
-  w.lever_pair = lever == "paper" ? 0.0 : 1.0;
+  w.lever = lever == "paper" ? WallLever{1.0, 0.0} : WallLever{0.0, 1.0};
   return sim;
 }
 

@@ -10,7 +10,7 @@
 #pragma once
 #include <cstddef>
 
-#include "core/particles.hpp"
+#include "boundary/wall_contact.hpp"
 
 namespace granular {
 
@@ -18,7 +18,7 @@ struct CylinderWall {
   double diameter = 16.0;  // D
   double omega = 0.5;      // Omega
   double d_wall = 1.0;     // d_w
-  double lever_paper = 1.0, lever_pair = 0.0;  // (1,0): as printed; (0,1): Eq. (3) reading
+  WallLever lever;         // reading of the spin term, see wall_contact.hpp
 
   template <class Law>
   void apply(ParticleStore<3>& p, const Law& law, std::size_t lo, std::size_t hi) const {
@@ -33,11 +33,7 @@ struct CylinderWall {
       const Eigen::Vector3d riw(x.x(), 0.0, x.z());
       const Eigen::Vector3d rp = (1.0 - half_d / r) * riw;                      // r'_iw
       const Eigen::Vector3d s(-half_d * x.z() / r, 0.0, half_d * x.x() / r);   // (D/2) r^_iw x y^
-      const Eigen::Vector3d viw = p.v[i] - omega * s;
-      const Eigen::Vector3d lever = (lever_paper + lever_pair * di / (di + d_wall)) * rp;
-      const auto res = law.wall_force(rp, di, 0.5 * (di + d_wall), viw, p.w[i], lever, p.species[i]);
-      p.f[i] += res.f;
-      p.tq[i] += res.t;
+      wall_contact(p, law, i, rp, omega * s, d_wall, lever);
     }
   }
 };

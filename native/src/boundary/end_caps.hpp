@@ -6,7 +6,7 @@
 #pragma once
 #include <cstddef>
 
-#include "core/particles.hpp"
+#include "boundary/wall_contact.hpp"
 
 namespace granular {
 
@@ -14,7 +14,7 @@ struct EndCaps {
   double length = 128.0;  // L
   double omega = 0.5;
   double d_wall = 1.0;
-  double lever_paper = 1.0, lever_pair = 0.0;  // see cylinder_wall.hpp
+  WallLever lever;  // see wall_contact.hpp
 
   template <class Law>
   void apply(ParticleStore<3>& p, const Law& law, std::size_t lo, std::size_t hi) const {
@@ -26,11 +26,7 @@ struct EndCaps {
       if (gap >= Law::range(di, d_wall)) continue;
       const Eigen::Vector3d rp(0.0, x.y() > 0.0 ? -gap : gap, 0.0);  // r'_iw, towards the origin
       const Eigen::Vector3d s(-x.z(), 0.0, x.x());                    // r_i x y^
-      const Eigen::Vector3d viw = p.v[i] - omega * s;
-      const Eigen::Vector3d lever = (lever_paper + lever_pair * di / (di + d_wall)) * rp;
-      const auto res = law.wall_force(rp, di, 0.5 * (di + d_wall), viw, p.w[i], lever, p.species[i]);
-      p.f[i] += res.f;
-      p.tq[i] += res.t;
+      wall_contact(p, law, i, rp, omega * s, d_wall, lever);
     }
   }
 };

@@ -33,15 +33,13 @@ void configure_common(Sim& sim, const DrumScene& s) {
   cyl.omega = s.omega;
   cyl.d_wall = s.wall_diameter;
   const bool paper = s.wall_lever == "paper";
-  cyl.lever_paper = paper ? 1.0 : 0.0;
-  cyl.lever_pair = paper ? 0.0 : 1.0;
+  cyl.lever = WallLever{paper ? 1.0 : 0.0, paper ? 0.0 : 1.0};
   if constexpr (std::tuple_size_v<decltype(sim.walls)> == 2) {
     EndCaps& caps = std::get<EndCaps>(sim.walls);
     caps.length = s.length;
     caps.omega = s.omega;
     caps.d_wall = s.wall_diameter;
-    caps.lever_paper = cyl.lever_paper;
-    caps.lever_pair = cyl.lever_pair;
+    caps.lever = cyl.lever;
   }
   sim.init();
 }

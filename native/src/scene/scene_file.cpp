@@ -16,6 +16,22 @@ std::vector<std::string> split_key(const std::string& key) {
   return parts;
 }
 
+// The table holding the last part of a dotted key, creating tables on the way.
+toml::table* table_for(toml::table& root, const std::vector<std::string>& parts, const std::string& file,
+                       const std::string& key) {
+  toml::table* t = &root;
+  for (std::size_t q = 0; q + 1 < parts.size(); ++q) {
+    auto* node = t->get(parts[q]);
+    if (!node) {
+      t->insert(parts[q], toml::table{});
+      node = t->get(parts[q]);
+    }
+    t = node->as_table();
+    if (!t) throw SceneError(file, key, "goes through '" + parts[q] + "', which is not a table");
+  }
+  return t;
+}
+
 void collect_keys(const toml::table& t, const std::string& prefix, std::vector<std::string>& out) {
   for (const auto& [k, v] : t) {
     const std::string full = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
@@ -41,7 +57,6 @@ SceneFile::SceneFile(const std::string& path, const std::vector<std::string>& ov
     if (eq == std::string::npos || eq == 0)
       throw SceneError(path, "override '" + ov + "' is not of the form key=value");
     const std::string key = ov.substr(0, eq), value = ov.substr(eq + 1);
-    toml::node_view<toml::node> parsed;
     toml::table holder;
     try {
       holder = toml::parse("v = " + value);
@@ -49,17 +64,7 @@ SceneFile::SceneFile(const std::string& path, const std::vector<std::string>& ov
       holder.insert_or_assign("v", value);  // a bare word: take it as a string
     }
     const auto parts = split_key(key);
-    toml::table* t = &table_;
-    for (std::size_t q = 0; q + 1 < parts.size(); ++q) {
-      auto* node = t->get(parts[q]);
-      if (!node) {
-        t->insert(parts[q], toml::table{});
-        node = t->get(parts[q]);
-      }
-      t = node->as_table();
-      if (!t) throw SceneError(path, key, "override goes through '" + parts[q] + "', which is not a table");
-    }
-    t->insert_or_assign(parts.back(), *holder.get("v"));
+    table_for(table_, parts, path, key)->insert_or_assign(parts.back(), *holder.get("v"));
   }
 }
 
@@ -78,15 +83,7 @@ bool SceneFile::has(const std::string& key) const { return find(key) != nullptr;
 
 void SceneFile::set_default(const std::string& key, toml::node&& value) {
   const auto parts = split_key(key);
-  toml::table* t = &table_;
-  for (std::size_t q = 0; q + 1 < parts.size(); ++q) {
-    auto* node = t->get(parts[q]);
-    if (!node) {
-      t->insert(parts[q], toml::table{});
-      node = t->get(parts[q]);
-    }
-    t = node->as_table();
-  }
+  toml::table* t = table_for(table_, parts, path_, key);
   if (auto* v = value.as_floating_point()) t->insert_or_assign(parts.back(), v->get());
   else if (auto* i = value.as_integer()) t->insert_or_assign(parts.back(), i->get());
   else if (auto* s = value.as_string()) t->insert_or_assign(parts.back(), s->get());

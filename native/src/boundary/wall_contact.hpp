@@ -1,0 +1,30 @@
+// The part every smooth wall shares (Rapaport 2002, Sec. III): given the
+// vector r'_iw from the wall's contact point to particle i and the wall's
+// velocity there, evaluate Eqs. (1), (2), (5) through the contact law and add
+// the force and torque to the particle.
+#pragma once
+#include <cstddef>
+
+#include "core/particles.hpp"
+
+namespace granular {
+
+// Which vector multiplies w_i in the wall's sliding velocity:
+// paper = 1: w_i x r'_iw, as printed; pair = 1: Eq. (3) with the wall as a
+// resting particle of diameter d_w, d_i/(d_i + d_w) w_i x r'_iw.
+struct WallLever {
+  double paper = 1.0, pair = 0.0;
+};
+
+template <class Law>
+GRANULAR_INLINE void wall_contact(ParticleStore<3>& p, const Law& law, std::size_t i, const Eigen::Vector3d& rp,
+                                  const Eigen::Vector3d& wall_velocity, double d_wall, const WallLever& lever) {
+  const double di = p.d[i];
+  const Eigen::Vector3d viw = p.v[i] - wall_velocity;
+  const Eigen::Vector3d arm = (lever.paper + lever.pair * di / (di + d_wall)) * rp;
+  const auto res = law.wall_force(rp, di, 0.5 * (di + d_wall), viw, p.w[i], arm, p.species[i]);
+  p.f[i] += res.f;
+  p.tq[i] += res.t;
+}
+
+}  // namespace granular
