@@ -53,26 +53,54 @@ class Simulation {
     compute_forces();
   }
 
+  // One step. In the common case (no neighbour-list rebuild) the whole step is
+  // one parallel region: every thread integrates, computes forces for and
+  // finishes its own block, meeting the others only at two barriers.
   void step() {
+    const int nt = omp_get_max_threads();
+    if (nt != nl_.threads()) rebuild();  // the thread count changed since the last build
+    stats_.assign(nt, typename Integrator::DriftStats{});
+    const auto& xref = nl_.reference_positions();
     typename Integrator::DriftStats st;
+    bool finished = false;
+    Stamps ts;
+#pragma omp parallel num_threads(nt)
     {
-      ScopedPhase ph(timers, Phase::integrate);
-      st = first_half_all();
-    }
-    check_stable(st);
-    if (!(st.disp_bound() <= skin)) {
-      ScopedPhase ph(timers, Phase::neighbor);
-      rebuild();
-    }
-    compute_forces();
-    {
-      ScopedPhase ph(timers, Phase::integrate);
-#pragma omp parallel
+      const int t = omp_get_thread_num();
+      const auto [lo, hi] = thread_block(p.size(), nt, t);
+      stats_[t] = integrator.first_half(p, box, xref, lo, hi);
+#pragma omp barrier
+      // Every thread reaches the same verdict from the same numbers.
+      const auto all = combine(stats_);
+      const bool go_on = stable(all) && all.disp_bound() <= skin;
+#pragma omp master
       {
-        const auto [lo, hi] = thread_block(p.size(), omp_get_num_threads(), omp_get_thread_num());
-        integrator.second_half(p, lo, hi);
+        st = all;
+        finished = go_on;
+        ts.first = PhaseTimers::Clock::now();
+      }
+      if (go_on) forces_and_finish(t, nt, lo, hi, ts);
+    }
+    timers.add(Phase::integrate, ts.first - ts.start);
+    if (!finished) {
+      check_stable(st);  // throws if unstable
+      {
+        ScopedPhase ph(timers, Phase::neighbor);
+        rebuild();
+      }
+      ts = Stamps{};
+#pragma omp parallel num_threads(nt)
+      {
+        const int t = omp_get_thread_num();
+        const auto [lo, hi] = thread_block(p.size(), nt, t);
+#pragma omp master
+        ts.first = PhaseTimers::Clock::now();
+        forces_and_finish(t, nt, lo, hi, ts);
       }
     }
+    timers.add(Phase::pairs, ts.pairs_done - ts.first);
+    timers.add(Phase::walls, ts.walls_done - ts.pairs_done);
+    timers.add(Phase::integrate, ts.end - ts.walls_done);
     time += integrator.dt;
     ++step_count;
   }
@@ -81,80 +109,17 @@ class Simulation {
     nl_.build(p, box, max_range_, skin, [](double a, double b) { return Law::range(a, b); });
   }
 
-  // Pair contacts into per-thread buffers, reduced in thread order (so the
-  // result is bitwise repeatable for a thread count), then wall contacts per
-  // particle. A thread zeroes and a reducer reads only the chunks of a buffer
-  // that its owner writes, so little data crosses between cores.
+  // Forces at the current state (no integration); used at start-up.
   void compute_forces() {
-    const std::size_t n = p.size();
     const int nt = omp_get_max_threads();
-    if (nt != nl_.threads()) rebuild();  // the thread count changed since the last build
-    if (static_cast<int>(fbuf_.size()) != nt || fbuf_[0].size() != n) {
-      fbuf_.assign(nt, std::vector<V>(n));
-      tbuf_.assign(nt, std::vector<A>(n));
-    }
-    constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
-    const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
-    auto t_pairs = PhaseTimers::Clock::now();
-    PhaseTimers::Clock::time_point t_walls;
+    if (nt != nl_.threads()) rebuild();
+    Stamps ts;
 #pragma omp parallel num_threads(nt)
     {
       const int t = omp_get_thread_num();
-      V* F = fbuf_[t].data();
-      A* T = tbuf_[t].data();
-      for (std::size_t c = 0; c < n_chunks; ++c)
-        if (nl_.touched(t, c))
-          for (std::size_t i = c * kChunk, e = std::min(n, i + kChunk); i < e; ++i) {
-            F[i].setZero();
-            T[i].setZero();
-          }
-      const auto [lo, hi] = thread_block(n, nt, t);
-      const std::uint32_t* col = nl_.col(t);
-      for (std::size_t i = lo; i < hi; ++i) {
-        const V xi = p.x[i], vi = p.v[i];
-        const A wi = p.w[i];
-        const double di = p.d[i];
-        const int ci = p.species[i];
-        V fi = V::Zero();
-        A ti = A::Zero();
-        for (std::uint32_t k = nl_.begin(i), ke = nl_.end(i); k < ke; ++k) {
-          const std::uint32_t j = col[k];
-          const V dr = box.min_image(xi - p.x[j]);
-          const double r2 = dr.squaredNorm();
-          const double rc = Law::range(di, p.d[j]);
-          if (r2 >= rc * rc) continue;
-          const auto c = law.pair_force(dr, r2, di, p.d[j], vi - p.v[j], wi, p.w[j], ci, p.species[j]);
-          fi += c.f;
-          ti += c.ti;
-          F[j] -= c.f;
-          T[j] += c.tj;
-        }
-        F[i] += fi;
-        T[i] += ti;
-      }
-#pragma omp barrier
-      for (std::size_t i = lo; i < hi;) {
-        const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
-        for (std::size_t q = i; q < e; ++q) {
-          p.f[q].setZero();
-          p.tq[q].setZero();
-        }
-        for (int u = 0; u < nt; ++u)
-          if (nl_.touched(u, c))
-            for (std::size_t q = i; q < e; ++q) {
-              p.f[q] += fbuf_[u][q];
-              p.tq[q] += tbuf_[u][q];
-            }
-        i = e;
-      }
-#pragma omp barrier
-#pragma omp master
-      t_walls = PhaseTimers::Clock::now();
-      std::apply([&](const auto&... w) { (w.apply(p, law, lo, hi), ...); }, walls);
+      const auto [lo, hi] = thread_block(p.size(), nt, t);
+      forces_in_region(t, nt, lo, hi, ts);
     }
-    const auto t_end = PhaseTimers::Clock::now();
-    timers.add(Phase::pairs, t_walls - t_pairs);
-    timers.add(Phase::walls, t_end - t_walls);
   }
 
   const NeighborList<Dim>& neighbors() const { return nl_; }
@@ -164,16 +129,87 @@ class Simulation {
   double max_step_move() const { return 0.5 * skin; }
 
  private:
-  typename Integrator::DriftStats first_half_all() {
-    const int nt = omp_get_max_threads();
-    std::vector<typename Integrator::DriftStats> per(nt);
-    const auto& xref = nl_.reference_positions();
-#pragma omp parallel num_threads(nt)
-    {
-      const int t = omp_get_thread_num();
-      const auto [lo, hi] = thread_block(p.size(), nt, t);
-      per[t] = integrator.first_half(p, box, xref, lo, hi);
+  struct Stamps {
+    PhaseTimers::Clock::time_point start = PhaseTimers::Clock::now(), first = start, pairs_done = start,
+                                   walls_done = start, end = start;
+  };
+
+  void forces_and_finish(int t, int nt, std::size_t lo, std::size_t hi, Stamps& ts) {
+    forces_in_region(t, nt, lo, hi, ts);
+    integrator.second_half(p, lo, hi);
+#pragma omp master
+    ts.end = PhaseTimers::Clock::now();
+  }
+
+  // Called by every thread of a parallel region. Pair contacts go into
+  // per-thread buffers, reduced in thread order (so the result is bitwise
+  // repeatable for a thread count), then wall contacts per particle. A thread
+  // zeroes, and a reducer reads, only the chunks of a buffer its owner writes,
+  // so little data crosses between cores.
+  void forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, Stamps& ts) {
+    const std::size_t n = p.size();
+#pragma omp single
+    if (static_cast<int>(fbuf_.size()) != nt || fbuf_[0].size() != n) {
+      fbuf_.assign(nt, std::vector<V>(n));
+      tbuf_.assign(nt, std::vector<A>(n));
     }
+    constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
+    const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
+    V* F = fbuf_[t].data();
+    A* T = tbuf_[t].data();
+    for (std::size_t c = 0; c < n_chunks; ++c)
+      if (nl_.touched(t, c))
+        for (std::size_t i = c * kChunk, e = std::min(n, i + kChunk); i < e; ++i) {
+          F[i].setZero();
+          T[i].setZero();
+        }
+    const std::uint32_t* col = nl_.col(t);
+    for (std::size_t i = lo; i < hi; ++i) {
+      const V xi = p.x[i], vi = p.v[i];
+      const A wi = p.w[i];
+      const double di = p.d[i];
+      const int ci = p.species[i];
+      V fi = V::Zero();
+      A ti = A::Zero();
+      for (std::uint32_t k = nl_.begin(i), ke = nl_.end(i); k < ke; ++k) {
+        const std::uint32_t j = col[k];
+        const V dr = box.min_image(xi - p.x[j]);
+        const double r2 = dr.squaredNorm();
+        const double rc = Law::range(di, p.d[j]);
+        if (r2 >= rc * rc) continue;
+        const auto c = law.pair_force(dr, r2, di, p.d[j], vi - p.v[j], wi, p.w[j], ci, p.species[j]);
+        fi += c.f;
+        ti += c.ti;
+        F[j] -= c.f;
+        T[j] += c.tj;
+      }
+      F[i] += fi;
+      T[i] += ti;
+    }
+#pragma omp barrier
+    for (std::size_t i = lo; i < hi;) {
+      const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
+      for (std::size_t q = i; q < e; ++q) {
+        p.f[q].setZero();
+        p.tq[q].setZero();
+      }
+      for (int u = 0; u < nt; ++u)
+        if (nl_.touched(u, c))
+          for (std::size_t q = i; q < e; ++q) {
+            p.f[q] += fbuf_[u][q];
+            p.tq[q] += tbuf_[u][q];
+          }
+      i = e;
+    }
+#pragma omp master
+    ts.pairs_done = PhaseTimers::Clock::now();
+    // Walls act on the thread's own block only: no barrier needed.
+    std::apply([&](const auto&... w) { (w.apply(p, law, lo, hi), ...); }, walls);
+#pragma omp master
+    ts.walls_done = PhaseTimers::Clock::now();
+  }
+
+  static typename Integrator::DriftStats combine(const std::vector<typename Integrator::DriftStats>& per) {
     typename Integrator::DriftStats st;
     for (const auto& s : per) {
       if (!(s.max_step2 <= st.max_step2)) st.max_step2 = s.max_step2;
@@ -183,9 +219,14 @@ class Simulation {
     return st;
   }
 
+  bool stable(const typename Integrator::DriftStats& st) const {
+    const double lim = max_step_move();
+    return st.max_step2 <= lim * lim;
+  }
+
   void check_stable(const typename Integrator::DriftStats& st) const {
     const double lim = max_step_move();
-    if (st.max_step2 <= lim * lim) return;
+    if (stable(st)) return;
     // Find the culprit (only on failure).
     std::size_t worst = 0;
     double worst_v = -1.0;
@@ -210,6 +251,7 @@ class Simulation {
   double max_range_ = 0.0;
   std::vector<std::vector<V>> fbuf_;
   std::vector<std::vector<A>> tbuf_;
+  std::vector<typename Integrator::DriftStats> stats_;
 };
 
 }  // namespace granular

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/box.hpp"
+#include "core/threads.hpp"
 
 namespace granular {
 
@@ -16,32 +17,62 @@ class CellList {
  public:
   using V = Vec<Dim>;
 
-  void build(const Box<Dim>& box, const std::vector<V>& x, double min_cell) {
-    const V len = box.length();
-    // Axis order: the axis with most cells varies slowest, so contiguous index
-    // ranges (and the threads that own them) are slabs along the longest axis.
-    for (int k = 0; k < Dim; ++k) {
-      int n = std::max(1, static_cast<int>(len[k] / min_cell));
-      // A periodic axis with 2 cells would visit its neighbour twice.
-      if (box.periodic[k] && n < 3) n = 1;
-      n_[k] = n;
-      width_[k] = len[k] / n;
-      order_[k] = k;
-    }
-    std::sort(order_.begin(), order_.end(), [&](int a, int b) { return n_[a] < n_[b]; });
-    stride_[order_[0]] = 1;
-    for (int q = 1; q < Dim; ++q) stride_[order_[q]] = stride_[order_[q - 1]] * n_[order_[q - 1]];
-    n_cells_ = stride_[order_[Dim - 1]] * n_[order_[Dim - 1]];
-
+  // Called by every thread of an OpenMP parallel region with its own block
+  // [lo, hi): a parallel counting sort (per-thread histograms, one scan over
+  // cells and threads, per-thread scatter). Particles keep their index order
+  // within a cell, so the result is the same for any thread count.
+  void build_in_region(const Box<Dim>& box, const std::vector<V>& x, double min_cell, int t, int nt,
+                       std::size_t lo, std::size_t hi) {
     const std::size_t n = x.size();
-    cell_of_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) cell_of_[i] = cell_index(box, x[i]);
-    cell_start_.assign(n_cells_ + 1, 0);
-    for (std::size_t i = 0; i < n; ++i) ++cell_start_[cell_of_[i] + 1];
-    for (int c = 0; c < n_cells_; ++c) cell_start_[c + 1] += cell_start_[c];
-    sorted_.resize(n);
-    std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) sorted_[fill[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
+#pragma omp single
+    {
+      const V len = box.length();
+      // Axis order: the axis with most cells varies slowest, so contiguous
+      // index ranges (and the threads that own them) are slabs along the
+      // longest axis.
+      for (int k = 0; k < Dim; ++k) {
+        int m = std::max(1, static_cast<int>(len[k] / min_cell));
+        // A periodic axis with 2 cells would visit its neighbour twice.
+        if (box.periodic[k] && m < 3) m = 1;
+        n_[k] = m;
+        width_[k] = len[k] / m;
+        order_[k] = k;
+      }
+      std::sort(order_.begin(), order_.end(), [&](int a, int b) { return n_[a] < n_[b]; });
+      stride_[order_[0]] = 1;
+      for (int q = 1; q < Dim; ++q) stride_[order_[q]] = stride_[order_[q - 1]] * n_[order_[q - 1]];
+      n_cells_ = stride_[order_[Dim - 1]] * n_[order_[Dim - 1]];
+      periodic_ = box.periodic;
+      cell_tmp_.resize(n);
+      cell_of_.resize(n);
+      sorted_.resize(n);
+      cell_start_.assign(n_cells_ + 1, 0);
+      offset_.resize(nt);
+    }  // implicit barrier
+    auto& count = offset_[t];
+    count.assign(n_cells_, 0);
+    for (std::size_t i = lo; i < hi; ++i) {
+      cell_tmp_[i] = cell_index(box, x[i]);
+      ++count[cell_tmp_[i]];
+    }
+#pragma omp barrier
+#pragma omp single
+    {
+      std::uint32_t run = 0;
+      for (int c = 0; c < n_cells_; ++c) {
+        cell_start_[c] = run;
+        for (int u = 0; u < nt; ++u) {
+          const std::uint32_t k = offset_[u][c];
+          offset_[u][c] = run;
+          run += k;
+        }
+      }
+      cell_start_[n_cells_] = run;
+    }  // implicit barrier
+    for (std::size_t i = lo; i < hi; ++i) sorted_[count[cell_tmp_[i]]++] = static_cast<std::uint32_t>(i);
+#pragma omp barrier
+    // After the store is reordered by sorted(), particle k sits at slot k.
+    for (std::size_t k = lo; k < hi; ++k) cell_of_[k] = cell_tmp_[sorted_[k]];
   }
 
   // Particle indices in cell order (a permutation: use it to reorder the store).
@@ -49,14 +80,8 @@ class CellList {
   int n_cells() const { return n_cells_; }
   std::uint32_t begin(int c) const { return cell_start_[c]; }
   std::uint32_t end(int c) const { return cell_start_[c + 1]; }
-  int cell_of(std::size_t i) const { return cell_of_[i]; }
-  void set_identity_order() {
-    // After the store was reordered by sorted(), particle k sits at slot k.
-    std::vector<int> c(sorted_.size());
-    for (std::size_t k = 0; k < sorted_.size(); ++k) c[k] = cell_of_[sorted_[k]];
-    cell_of_.swap(c);
-    for (std::size_t k = 0; k < sorted_.size(); ++k) sorted_[k] = static_cast<std::uint32_t>(k);
-  }
+  // Cell of the particle at slot k of the reordered store.
+  int cell_of(std::size_t k) const { return cell_of_[k]; }
 
   // Half stencil of cell c: c itself plus the adjacent cells whose offset is
   // lexicographically positive, with periodic wrap. Visiting (c, c') for c' in
@@ -87,8 +112,6 @@ class CellList {
     return count;
   }
 
-  void set_box(const Box<Dim>& box) { periodic_ = box.periodic; }
-
  private:
   int cell_index(const Box<Dim>& box, const V& p) const {
     int idx = 0;
@@ -108,7 +131,8 @@ class CellList {
   std::array<bool, Dim> periodic_{};
   V width_ = V::Zero();
   int n_cells_ = 0;
-  std::vector<int> cell_of_;
+  std::vector<int> cell_of_, cell_tmp_;
+  std::vector<std::vector<std::uint32_t>> offset_;
   std::vector<std::uint32_t> cell_start_;
   std::vector<std::uint32_t> sorted_;
 };

@@ -30,11 +30,6 @@ class NeighborList {
   template <class RangeFn>
   void build(ParticleStore<Dim>& p, const Box<Dim>& box, double max_range, double skin, RangeFn range) {
     skin_ = skin;
-    cells_.set_box(box);
-    cells_.build(box, p.x, max_range + skin);
-    const auto perm = cells_.sorted();
-    cells_.set_identity_order();
-
     const std::size_t n = p.size();
     nt_ = omp_get_max_threads();
     col_.resize(nt_);
@@ -47,7 +42,8 @@ class NeighborList {
     {
       const int t = omp_get_thread_num();
       const auto [lo, hi] = thread_block(n, nt_, t);
-      p.reorder_in_parallel(perm, lo, hi);
+      cells_.build_in_region(box, p.x, max_range + skin, t, nt_, lo, hi);
+      p.reorder_in_parallel(cells_.sorted(), lo, hi);
 #pragma omp barrier
       auto& out = col_[t];
       auto& mark = touched_[t];
