@@ -1,4 +1,10 @@
-"""Command line: ``python3 -m compare quicklook OUT.h5 -o PLOT.png``.
+"""Command line:
+
+    python3 -m compare quicklook OUT.h5 -o PLOT.png     space-time plot only
+    python3 -m compare observe OUT.h5 --json            every observable as JSON
+    python3 -m compare plot OUT.h5 -o DIR               every figure
+    python3 -m compare table1 RUN_DIR -o docs/table1.md  the Table I reproduction
+
 
 Expected failures (missing file, wrong schema, not a drum) print one line to
 stderr naming the file and exit with status 2, so scripts can tell them apart
@@ -17,6 +23,7 @@ matplotlib.use("Agg")  # files only; never needs a display
 
 from matplotlib.figure import Figure  # noqa: E402
 
+from .observe import DEFAULTS, observe, plot_all  # noqa: E402
 from .reader import read_run  # noqa: E402
 from .spacetime import SpaceTime  # noqa: E402
 
@@ -48,7 +55,52 @@ def main(argv=None):
     q.add_argument("-o", "--output", help="PNG to write (default: RUN with suffix _spacetime.png)")
     q.add_argument("--slice-width", type=float, default=None,
                    help="slice width when recomputing from frames (default 1.0)")
+    o = sub.add_parser("observe", help="every drum observable of a run")
+    o.add_argument("run")
+    o.add_argument("--json", action="store_true", help="print JSON (the only format for now)")
+    pl = sub.add_parser("plot", help="write every figure of a run")
+    pl.add_argument("run")
+    pl.add_argument("-o", "--output", required=True, help="directory for the PNGs")
+    tb = sub.add_parser("table1", help="docs/table1.md from a directory of Table I runs")
+    tb.add_argument("run_dir")
+    tb.add_argument("-o", "--output", default="docs/table1.md")
+    tb.add_argument("--figures", default="docs/figures/table1")
+    for sp in (o, pl):
+        sp.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                        help="analysis parameter, e.g. formation.threshold=3 (keys: %s)" % ", ".join(DEFAULTS))
     args = parser.parse_args(argv)
+
+    if args.command == "table1":
+        from .table1 import table1
+        print(table1(args.run_dir, args.output, args.figures))
+        return 0
+
+    if args.command in ("observe", "plot"):
+        params = {}
+        for kv in args.param:
+            key, _, value = kv.partition("=")
+            if key not in DEFAULTS or not value:
+                print(f"{args.command}: error: bad --param {kv!r}; keys: {', '.join(DEFAULTS)}", file=sys.stderr)
+                return 2
+            try:
+                params[key] = float(value)
+            except ValueError:
+                print(f"{args.command}: error: --param {key} needs a number, got {value!r}", file=sys.stderr)
+                return 2
+        try:
+            if args.command == "observe":
+                import json
+                print(json.dumps(observe(args.run, params), indent=2))
+            else:
+                for path in plot_all(args.run, args.output, params):
+                    print(path)
+        except (OSError, ValueError) as exc:
+            msg = str(exc)
+            if args.run not in msg:
+                msg = f"{args.run}: {msg}"
+            print(f"{args.command}: error: {msg}", file=sys.stderr)
+            return 2
+        return 0
 
     if args.command == "quicklook":
         out = args.output or Path(args.run).with_name(Path(args.run).stem + "_spacetime.png")

@@ -78,7 +78,8 @@ class SpaceTime:
             if drum.get("ends") == "periodic":
                 # an engine may store unwrapped coordinates; wrap into the cell
                 length = float(drum["length"])
-                y = (y + length / 2) % length - length / 2
+                outside = (y < -length / 2) | (y >= length / 2)
+                y = np.where(outside, (y + length / 2) % length - length / 2, y)
             frac = np.array([axial_profile(y[f], run.frames.diameter[f],
                                            run.frames.species[f], edges)
                              for f in range(run.frames.n_frames)]).reshape(-1, edges.size - 1)

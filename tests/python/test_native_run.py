@@ -108,3 +108,26 @@ def test_unstable_run_stops_with_message_and_no_nans(tmp_path):
         for name in ("position", "velocity", "angular_velocity"):
             assert np.all(np.isfinite(f["frames"][name][...]))
         assert np.all(np.isfinite(f["profile/time"][...]))
+
+
+def test_observe_and_plot_on_a_real_run(short_run, tmp_path):
+    """The analysis CLI on native output: every observable present, the
+    engine's profile equal to the one recomputed from its snapshots, and a
+    freshly mixed drum with no bands yet."""
+    import sys
+    r = subprocess.run([sys.executable, "-m", "compare", "observe", str(short_run), "--json"],
+                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert r.returncode == 0, r.stderr
+    obs = json.loads(r.stdout)
+    assert obs["engine"] == "granular-native" and obs["particles"] == 4664
+    assert obs["rotations_run"] == pytest.approx(0.4, abs=1e-3)
+    assert obs["profile"]["frames_compared"] == 5
+    assert obs["profile"]["engine_vs_frames_max_difference"] < 1e-12
+    assert obs["formation"]["formation_time_rotations"] is None
+    assert obs["bands"]["final"] == 0
+    assert "surface" in obs
+    r = subprocess.run([sys.executable, "-m", "compare", "plot", str(short_run), "-o", str(tmp_path / "figs")],
+                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert r.returncode == 0, r.stderr
+    for name in ("spacetime.png", "bands.png", "surface.png"):
+        assert (tmp_path / "figs" / name).stat().st_size > 1000
