@@ -12,6 +12,7 @@ from .bands import BandCount, BandFormation
 from .profile import AxialProfile
 from .reader import read_run
 from .spacetime import SpaceTime
+from .surface import FreeSurface
 
 DEFAULTS = {
     "formation.threshold": 3.0,
@@ -25,6 +26,7 @@ DEFAULTS = {
     "surface.cell": 1.0,
     "surface.frames": 10,
     "surface.fit_window": 0.5,
+    "surface.skip_rotations": 2.0,
 }
 
 
@@ -56,13 +58,9 @@ def analyse(run, params=None):
     out["bands"] = BandCount(p["bands.smoothing"], p["bands.threshold"], int(p["bands.min_width"]),
                              p["bands.early_window"], p["bands.final_window"]).compute(
                                  run, start=out["formation"].formation_time)
-    try:
-        from .surface import FreeSurface
-    except ImportError:  # pragma: no cover - surface analysis not installed
-        FreeSurface = None
-    if FreeSurface is not None:
-        out["surface"] = FreeSurface(cell=p["surface.cell"], frames=int(p["surface.frames"]),
-                                     fit_window=p["surface.fit_window"]).compute(run)
+    out["surface"] = FreeSurface(cell=p["surface.cell"], frames=int(p["surface.frames"]),
+                                 fit_window=p["surface.fit_window"],
+                                 skip_rotations=p["surface.skip_rotations"]).compute(run)
     return out
 
 

@@ -102,7 +102,10 @@ class FreeSurface:
         chosen one (the paper's "separated by several rotations").
     """
 
-    def __init__(self, cell=1.0, frames=10, fit_window=0.5, min_gap_rotations=None):
+    def __init__(self, cell=1.0, frames=10, fit_window=0.5, min_gap_rotations=None, skip_rotations=2.0):
+        self.skip_rotations = float(skip_rotations)
+        if self.skip_rotations < 0:
+            raise ValueError(f"skip_rotations must be >= 0, got {skip_rotations!r}")
         self.cell = float(cell)
         if not self.cell > 0:
             raise ValueError(f"cell must be positive, got {cell!r}")
@@ -145,7 +148,11 @@ class FreeSurface:
         """Indices (ascending) of the snapshots to average."""
         time = run.frames.time
         n = time.size
-        want = n if self.frames is None else min(self.frames, n)
+        first = 0
+        if run.rotation_period is not None and self.skip_rotations > 0:
+            late = np.nonzero(time >= self.skip_rotations * run.rotation_period * (1 - 1e-9))[0]
+            first = int(late[0]) if late.size else n - 1
+        want = (n - first) if self.frames is None else min(self.frames, n - first)
         if self.min_gap_rotations is None:
             return np.arange(n - want, n)
         if run.rotation_period is None:
@@ -156,7 +163,7 @@ class FreeSurface:
         # tolerance: snapshot times are multiples of a float interval
         tol = 1e-9 * max(1.0, abs(time[-1]))
         for i in range(n - 2, -1, -1):
-            if len(chosen) == want:
+            if len(chosen) == want or i < first:
                 break
             if time[chosen[-1]] - time[i] >= gap - tol:
                 chosen.append(i)
@@ -367,7 +374,8 @@ class FreeSurface:
             "counts": r("counts"),
             "parameters": {"cell": self.cell, "frames": self.frames,
                            "fit_window": self.fit_window,
-                           "min_gap_rotations": self.min_gap_rotations},
+                           "min_gap_rotations": self.min_gap_rotations,
+                           "skip_rotations": self.skip_rotations},
         })
 
     # -- plot ------------------------------------------------------------------

@@ -247,7 +247,7 @@ def test_frames_are_averaged(tmp_path):
     # h(x) averages over frames: planes at 10 and 20 deg average to slope
     # (tan 10 + tan 20) / 2; +theta and -theta average to a flat surface
     run = write_run(tmp_path / "two.h5", [bed(10.0, seed=1), bed(20.0, seed=2)])
-    fs = FreeSurface().compute(run)
+    fs = FreeSurface(skip_rotations=0).compute(run)
     mean_slope = 0.5 * (math.tan(math.radians(10)) + math.tan(math.radians(20)))
     assert fs.slope == pytest.approx(mean_slope, abs=0.01)
     assert fs.slope_angle_deg == pytest.approx(math.degrees(math.atan(mean_slope)), abs=0.5)
@@ -256,21 +256,21 @@ def test_frames_are_averaged(tmp_path):
     np.testing.assert_array_equal(fs.counts[win], 2 * int(L))
 
     run = write_run(tmp_path / "pm.h5", [bed(15.0, seed=1), bed(-15.0, seed=2)])
-    fs = FreeSurface().compute(run)
+    fs = FreeSurface(skip_rotations=0).compute(run)
     assert fs.slope_angle_deg < 0.5
 
 
 def test_frames_parameter_takes_the_last_frames(tmp_path):
     frames = [bed(40.0, c=-2.0, seed=0), bed(10.0, seed=1), bed(20.0, seed=2)]
     run = write_run(tmp_path / "three.h5", frames, times_rot=[1.0, 2.0, 3.0])
-    fs2 = FreeSurface(frames=2).compute(run)
+    fs2 = FreeSurface(frames=2, skip_rotations=0).compute(run)
     np.testing.assert_allclose(fs2.frames_used, [2.0, 3.0])
     mean_slope = 0.5 * (math.tan(math.radians(10)) + math.tan(math.radians(20)))
     assert fs2.slope == pytest.approx(mean_slope, abs=0.01)
-    fs1 = FreeSurface(frames=1).compute(run)
+    fs1 = FreeSurface(frames=1, skip_rotations=0).compute(run)
     np.testing.assert_allclose(fs1.frames_used, [3.0])
     assert fs1.slope_angle_deg == pytest.approx(20.0, abs=0.5)
-    fs_all = FreeSurface().compute(run)  # default 10 > 3: all frames
+    fs_all = FreeSurface(skip_rotations=0).compute(run)  # default 10 > 3: all frames
     np.testing.assert_allclose(fs_all.frames_used, [1.0, 2.0, 3.0])
     assert fs_all.slope > fs2.slope + 0.05  # the 40 deg frame pulls it up
 
@@ -279,12 +279,24 @@ def test_min_gap_rotations_spaces_the_frames(tmp_path):
     times = [0.0, 0.5, 1.0, 1.8, 2.0]
     frames = [bed(12.0, seed=i) for i in range(len(times))]
     run = write_run(tmp_path / "five.h5", frames, times_rot=times)
-    fs = FreeSurface(min_gap_rotations=1.0).compute(run)
+    fs = FreeSurface(min_gap_rotations=1.0, skip_rotations=0).compute(run)
     np.testing.assert_allclose(fs.frames_used, [0.0, 1.0, 2.0])
-    fs = FreeSurface(frames=2, min_gap_rotations=1.0).compute(run)
+    fs = FreeSurface(frames=2, min_gap_rotations=1.0, skip_rotations=0).compute(run)
     np.testing.assert_allclose(fs.frames_used, [1.0, 2.0])
-    fs = FreeSurface(frames=3).compute(run)
+    fs = FreeSurface(frames=3, skip_rotations=0).compute(run)
     np.testing.assert_allclose(fs.frames_used, [1.0, 1.8, 2.0])
+
+
+def test_start_up_snapshots_are_skipped(tmp_path):
+    """The initial lattice and the first rotations are not a flowing surface."""
+    times = [0.0, 1.0, 2.0, 3.0]
+    frames = [bed(40.0, seed=0), bed(40.0, seed=1), bed(12.0, seed=2), bed(12.0, seed=3)]
+    run = write_run(tmp_path / "skip.h5", frames, times_rot=times)
+    fs = FreeSurface().compute(run)  # default skip_rotations = 2
+    np.testing.assert_allclose(fs.frames_used, [2.0, 3.0])
+    assert fs.slope_angle_deg == pytest.approx(12.0, abs=0.5)
+    only_early = write_run(tmp_path / "early.h5", frames[:2], times_rot=times[:2])
+    np.testing.assert_allclose(FreeSurface().compute(only_early).frames_used, [1.0])  # falls back to the last
 
 
 # -- errors, output, plot ------------------------------------------------------------------
