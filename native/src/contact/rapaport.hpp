@@ -64,8 +64,9 @@ struct RapaportLaw {
   };
 
   // dr = r_i - r_j after minimum image, r2 = |dr|^2 < range(d_i, d_j)^2.
-  GRANULAR_INLINE PairResult pair_force(const V& dr, double r2, double di, double dj, const V& vij, const A& wi, const A& wj,
-                        int ci, int cj) const {
+  // (Masses do not enter Rapaport's forces: the inverse masses are unused.)
+  GRANULAR_INLINE PairResult pair_force(const V& dr, double r2, double di, double dj, const V& vij, const A& wi,
+                                        const A& wj, int ci, int cj, double /*inv_mi*/, double /*inv_mj*/) const {
     const double inv_r = 1.0 / std::sqrt(r2);
     const V n = dr * inv_r;
     const double vn = n.dot(vij);

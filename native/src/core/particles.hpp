@@ -24,6 +24,10 @@ struct ParticleStore {
   std::vector<double> inv_i;  // inverse moment of inertia
   std::vector<std::int32_t> species;
   std::vector<std::int64_t> id;
+  // Extra per-particle state that some integrators keep (Gear's higher time
+  // derivatives). Empty unless an integrator asks for it; permuted with the rest.
+  std::vector<std::vector<V>> aux_v;
+  std::vector<std::vector<A>> aux_a;
 
   std::size_t size() const { return x.size(); }
 
@@ -56,6 +60,8 @@ struct ParticleStore {
     permute(inv_i, scratch_d_, perm, lo, hi);
     permute(species, scratch_s_, perm, lo, hi);
     permute(id, scratch_id_, perm, lo, hi);
+    for (auto& col : aux_v) permute(col, scratch_v_, perm, lo, hi);
+    for (auto& col : aux_a) permute(col, scratch_a_, perm, lo, hi);
   }
 
  private:

@@ -38,6 +38,7 @@ class Simulation {
   Integrator integrator;
   std::tuple<Walls...> walls;
   double skin = 0.4;
+  int exclude_species = -1;  // pairs with both particles of this species are not listed (wall particles)
   double time = 0.0;
   long step_count = 0;
   PhaseTimers timers;
@@ -51,6 +52,7 @@ class Simulation {
     max_range_ = Law::range(dmax, dmax);
     rebuild();
     compute_forces();
+    integrator.start(p);
   }
 
   // One step. In the common case (no neighbour-list rebuild) the whole step is
@@ -68,7 +70,7 @@ class Simulation {
     {
       const int t = omp_get_thread_num();
       const auto [lo, hi] = thread_block(p.size(), nt, t);
-      stats_[t] = integrator.first_half(p, box, xref, lo, hi);
+      stats_[t] = integrator.first_half(p, box, xref, lo, hi, time + integrator.dt);
 #pragma omp barrier
       // Every thread reaches the same verdict from the same numbers.
       const auto all = combine(stats_);
@@ -106,7 +108,7 @@ class Simulation {
   }
 
   void rebuild() {
-    nl_.build(p, box, max_range_, skin, [](double a, double b) { return Law::range(a, b); });
+    nl_.build(p, box, max_range_, skin, [](double a, double b) { return Law::range(a, b); }, exclude_species);
   }
 
   // Forces at the current state (no integration); used at start-up.
@@ -136,7 +138,7 @@ class Simulation {
 
   void forces_and_finish(int t, int nt, std::size_t lo, std::size_t hi, Stamps& ts) {
     forces_in_region(t, nt, lo, hi, ts);
-    integrator.second_half(p, lo, hi);
+    integrator.second_half(p, box, lo, hi);
 #pragma omp master
     ts.end = PhaseTimers::Clock::now();
   }
@@ -167,7 +169,7 @@ class Simulation {
     for (std::size_t i = lo; i < hi; ++i) {
       const V xi = p.x[i], vi = p.v[i];
       const A wi = p.w[i];
-      const double di = p.d[i];
+      const double di = p.d[i], inv_mi = p.inv_m[i];
       const int ci = p.species[i];
       V fi = V::Zero();
       A ti = A::Zero();
@@ -177,7 +179,8 @@ class Simulation {
         const double r2 = dr.squaredNorm();
         const double rc = Law::range(di, p.d[j]);
         if (r2 >= rc * rc) continue;
-        const auto c = law.pair_force(dr, r2, di, p.d[j], vi - p.v[j], wi, p.w[j], ci, p.species[j]);
+        const auto c =
+            law.pair_force(dr, r2, di, p.d[j], vi - p.v[j], wi, p.w[j], ci, p.species[j], inv_mi, p.inv_m[j]);
         fi += c.f;
         ti += c.ti;
         F[j] -= c.f;

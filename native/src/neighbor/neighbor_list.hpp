@@ -28,7 +28,8 @@ class NeighborList {
   // owns the rows of its block thread_block(n, nt, t) and keeps them in its own
   // column array, so nothing is copied between threads.
   template <class RangeFn>
-  void build(ParticleStore<Dim>& p, const Box<Dim>& box, double max_range, double skin, RangeFn range) {
+  void build(ParticleStore<Dim>& p, const Box<Dim>& box, double max_range, double skin, RangeFn range,
+             int exclude_species = -1) {
     skin_ = skin;
     const std::size_t n = p.size();
     nt_ = omp_get_max_threads();
@@ -56,11 +57,13 @@ class NeighborList {
         const int ns = cells_.half_stencil(cells_.cell_of(i), st);
         const V xi = p.x[i];
         const double di = p.d[i];
+        const bool excluded_i = p.species[i] == exclude_species;
         for (int s = 0; s < ns; ++s) {
           // Own cell: only j > i; forward cells: all of them.
           const std::uint32_t b = s == 0 ? static_cast<std::uint32_t>(i + 1) : cells_.begin(st[s]);
           const std::uint32_t e = cells_.end(st[s]);
           for (std::uint32_t j = b; j < e; ++j) {
+            if (excluded_i && p.species[j] == exclude_species) continue;
             const double rc = range(di, p.d[j]) + skin;
             if (box.min_image(xi - p.x[j]).squaredNorm() < rc * rc) {
               out.push_back(j);

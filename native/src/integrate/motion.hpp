@@ -1,0 +1,65 @@
+// Prescribed motion of wall particles (walls made of particles, Poeschel and
+// Herrmann 1995): ordinary particles of species kWallSpecies whose position and
+// velocity are set from a closed-form motion instead of being integrated.
+// NoMotion is the default for scenes without wall particles and compiles away.
+#pragma once
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "core/particles.hpp"
+
+namespace granular {
+
+inline constexpr int kWallSpecies = 2;
+
+struct NoMotion {};
+
+// The box moves as y_box = A sin(phi(t)), phi = 2 pi int_0^t f dt', with the
+// frequency ramped linearly from f0 to f1 over [ramp_start, ramp_start + ramp_time]
+// (constant f0 when ramp_time = 0). Shaking starts at t = start.
+template <int Dim>
+struct ShakerMotion {
+  using V = Vec<Dim>;
+  double amplitude = 2.0;  // A, cm
+  double f0 = 3.0, f1 = 3.0;
+  double start = 0.0;       // shaking begins (after settling)
+  double ramp_start = 0.0;  // relative to start
+  double ramp_time = 0.0;
+  std::vector<V> anchor;  // by particle id: rest position of each wall particle
+
+  double frequency(double t) const {
+    const double s = t - start - ramp_start;
+    if (ramp_time <= 0.0 || s <= 0.0) return s > 0.0 && ramp_time <= 0.0 ? f1 : f0;
+    return s >= ramp_time ? f1 : f0 + (f1 - f0) * s / ramp_time;
+  }
+  // phase(t) = 2 pi int_start^t f(t') dt'
+  double phase(double t) const {
+    const double u = t - start;
+    if (u <= 0.0) return 0.0;
+    if (ramp_time <= 0.0) return 2.0 * M_PI * f0 * u;
+    const double a = std::min(u, ramp_start);
+    const double s = std::clamp(u - ramp_start, 0.0, ramp_time);
+    const double b = std::max(0.0, u - ramp_start - ramp_time);
+    return 2.0 * M_PI * (f0 * a + f0 * s + 0.5 * (f1 - f0) * s * s / ramp_time + f1 * b);
+  }
+  double y(double t) const { return amplitude * std::sin(phase(t)); }
+  double vy(double t) const {
+    return t <= start ? 0.0 : amplitude * std::cos(phase(t)) * 2.0 * M_PI * frequency(t);
+  }
+
+  void place(ParticleStore<Dim>& p, std::size_t i, double t) const {
+    V x = anchor[static_cast<std::size_t>(p.id[i])];
+    x[1] += y(t);
+    V v = V::Zero();
+    v[1] = vy(t);
+    p.x[i] = x;
+    p.v[i] = v;
+    p.w[i].setZero();
+  }
+};
+
+template <class Motion>
+inline constexpr bool kHasMotion = !std::is_same_v<Motion, NoMotion>;
+
+}  // namespace granular
