@@ -227,3 +227,66 @@ TEST(LinearLaw, TangentialFrictionConvergesToRolling) {
   EXPECT_NEAR(w, 30.0 / 3.0, 0.05);
   EXPECT_TRUE(monotone);
 }
+
+namespace {
+
+// A disk resting on a floor wall particle (infinite mass) that is shaken as
+// y = A sin(2 pi f t). Returns the smallest overlap over `cycles` cycles after
+// `settle` seconds at rest; the contact holds iff it stays > 0.
+template <class Integrator>
+double min_overlap_on_shaken_floor(double amplitude, double f, double cycles, double dt) {
+  WallSim<Integrator> sim;
+  open_box(sim);
+  sim.law.young = kY;
+  sim.law.gamma_n = kGammaN;
+  sim.law.gamma_s = 1.0;
+  sim.law.mu = 0.5;
+  sim.integrator.dt = dt;
+  sim.integrator.gravity = Eigen::Vector2d(0, -981);
+  auto& m = sim.integrator.motion;
+  m.amplitude = amplitude;
+  m.f0 = m.f1 = f;
+  m.start = 0.2;
+  m.startup_cycles = 2.0;  // no jolt: the amplitude grows over two cycles
+  m.anchor = {Eigen::Vector2d(0, -10)};
+  const double r = 1.0, big = 10.0, mass = disk_mass(r);
+  add_disk(sim, {0, -10}, {0, 0}, big, 0.0, kWallSpecies);
+  sim.p.inv_m[0] = 0.0;
+  add_disk(sim, {0, r - mass * 981 / kY}, {0, 0}, r);
+  sim.init();
+  double worst = 1e9;
+  const long steps = std::lround((0.2 + (3.0 + cycles) / f) / dt);
+  for (long k = 0; k < steps; ++k) {
+    sim.step();
+    const std::size_t w = sim.p.species[0] == kWallSpecies ? 0 : 1;
+    const double overlap = big + r - (sim.p.x[1 - w] - sim.p.x[w]).norm();
+    if (sim.time > 0.2 + 3.0 / f) worst = std::min(worst, overlap);  // full amplitude from cycle 2
+  }
+  return worst;
+}
+
+}  // namespace
+
+// Gamma = A (2 pi f)^2 / g: 0.54 at 2.6 Hz and 0.82 at 3.2 Hz with A = 2 cm,
+// below lift-off: a disk resting on the floor never leaves it.
+TEST(ShakenFloor, DiskBelowLiftOffNeverLeavesTheFloor) {
+  omp_set_num_threads(1);
+  for (double f : {2.6, 3.2}) {
+    const double gear = min_overlap_on_shaken_floor<Gear5<2, ShakerMotion<2>>>(2.0, f, 10, 5e-5);
+    const double verlet = min_overlap_on_shaken_floor<Leapfrog<2, ShakerMotion<2>>>(2.0, f, 10, 5e-5);
+    const double static_overlap = disk_mass(1.0) * 981 / kY;
+    std::printf("f = %.1f Hz: smallest overlap Gear %.3e, Verlet %.3e (at rest %.3e)\n", f, gear, verlet,
+                static_overlap);
+    EXPECT_GT(gear, 0.0);
+    EXPECT_GT(verlet, 0.0);
+    // and the overlap stays near m g (1 - Gamma) / Y at the top of the stroke
+    const double gamma = 2.0 * std::pow(2 * M_PI * f, 2) / 981;
+    EXPECT_NEAR(gear, static_overlap * (1 - gamma), 0.1 * static_overlap);
+  }
+}
+
+// Above lift-off (Gamma = 2) it does leave the floor: the test can fail.
+TEST(ShakenFloor, DiskAboveLiftOffLeavesTheFloor) {
+  omp_set_num_threads(1);
+  EXPECT_LT((min_overlap_on_shaken_floor<Gear5<2, ShakerMotion<2>>>(2.0, 5.0, 5, 5e-5)), 0.0);
+}

@@ -1,17 +1,21 @@
 // granular: the native engine's command-line program.
 //   granular run SCENE [-o OUT.h5] [--set key=value]... [--threads N]
 //   granular info SCENE [--set key=value]... [--json]
-//   granular bench SCENE [--threads N]... [--settle R] [--rotations R]
+//   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S]
+// SCENE is a drum (Rapaport 2002) or shaken-box (Poeschel and Herrmann 1995)
+// scene file; its scene.kind picks the model.
 #include <omp.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <algorithm>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
+#include "engine/box.hpp"
 #include "engine/drum.hpp"
 #include "scene/scene_file.hpp"
 #include "version.hpp"
@@ -21,42 +25,128 @@ using namespace granular;
 namespace {
 
 struct Loaded {
-  DrumScene scene;
+  std::string kind;
+  std::optional<DrumScene> drum;
+  std::optional<BoxScene> box;
   std::string toml, json;
+  const std::string& name() const { return drum ? drum->name : box->name; }
 };
 
 Loaded load(const std::string& path, const std::vector<std::string>& sets) {
   if (!std::filesystem::exists(path)) throw SceneError(path, "no such scene file");
   SceneFile f(path, sets);
-  Loaded l{read_drum_scene(f), "", ""};
+  Loaded l;
+  l.kind = f.peek_text("scene.kind");
+  if (l.kind == "drum")
+    l.drum = read_drum_scene(f);
+  else if (l.kind == "shaken_box")
+    l.box = read_box_scene(f);
+  else
+    f.fail("scene.kind", "is \"" + l.kind + "\"; allowed: \"drum\", \"shaken_box\"");
   l.toml = f.resolved_toml();
   l.json = f.resolved_json();
   return l;
 }
 
-nlohmann::json info_json(const Loaded& l, const ParticleStore<3>& p) {
+template <int Dim>
+std::vector<long> species_counts(const ParticleStore<Dim>& p) {
+  std::vector<long> c(3, 0);
+  for (auto sp : p.species) ++c[static_cast<std::size_t>(sp)];
+  return c;
+}
+
+nlohmann::json info_json(const Loaded& l) {
   auto j = nlohmann::json::parse(l.json);
-  long n_small = 0;
-  for (auto sp : p.species) n_small += sp == 0;
   nlohmann::json d;
-  d["particles"] = p.size();
-  d["particles_small"] = n_small;
-  d["particles_big"] = static_cast<long>(p.size()) - n_small;
-  if (l.scene.paper_n > 0) {
-    d["paper_particles"] = l.scene.paper_n;
-    d["particles_vs_paper_percent"] = 100.0 * (static_cast<double>(p.size()) / l.scene.paper_n - 1.0);
+  if (l.drum) {
+    const DrumScene& s = *l.drum;
+    const auto p = drum_particles(s);
+    const auto c = species_counts(p);
+    d["particles"] = p.size();
+    d["particles_small"] = c[0];
+    d["particles_big"] = c[1];
+    if (s.paper_n > 0) {
+      d["paper_particles"] = s.paper_n;
+      d["particles_vs_paper_percent"] = 100.0 * (static_cast<double>(p.size()) / s.paper_n - 1.0);
+    }
+    d["rotation_period"] = s.rotation_period();
+    d["steps_per_rotation"] = s.rotation_period() / s.dt;
+    d["steps_total"] = s.steps_per(s.rotations);
+  } else {
+    const BoxScene& s = *l.box;
+    std::vector<Eigen::Vector2d> anchors;
+    const auto p = box_particles(s, anchors);
+    const auto c = species_counts(p);
+    double top = 0.0;
+    for (const auto& a : anchors) top = std::max(top, a.y());
+    d["particles"] = p.size();
+    d["grains"] = c[0];
+    d["big_disks"] = c[1];
+    d["wall_particles"] = c[2];
+    d["wall_height_built"] = top + s.wall_radius;
+    const double w = 2.0 * M_PI * s.frequency;
+    d["peak_acceleration_over_g"] = s.gravity > 0 ? s.amplitude * w * w / s.gravity : 0.0;  // Gamma
+    d["steps_total"] = std::lround((s.settle + s.duration) / s.dt);
   }
-  d["rotation_period"] = l.scene.rotation_period();
-  d["steps_per_rotation"] = l.scene.rotation_period() / l.scene.dt;
-  d["steps_total"] = l.scene.steps_per(l.scene.rotations);
   j["derived"] = d;
   return j;
+}
+
+template <int Dim>
+void common_attrs(H5Output& out, const Loaded& l, const std::string& scene_path) {
+  out.attr("engine", std::string("granular-native"));
+  out.attr("engine_version", std::string(kVersion));
+  out.attr("scene_kind", l.kind);
+  out.attr("scene_name", l.name());
+  out.attr("scene_file", scene_path);
+  out.attr("scene_toml", l.toml);
+  out.attr("scene_json", l.json);
+  out.attr("threads", static_cast<std::int64_t>(omp_get_max_threads()));
+}
+
+int run_scene(const Loaded& l, const std::string& scene_path, std::string out_path, bool quiet) {
+  if (out_path.empty()) out_path = l.name() + ".h5";
+  const bool progress = !quiet && isatty(fileno(stderr));
+  RunReport r;
+  if (l.drum) {
+    const DrumScene& s = *l.drum;
+    DrumSim sim = make_drum(s);
+    const auto n = std::visit([](auto& v) { return v.p.size(); }, sim);
+    H5Output out(out_path, 3, static_cast<std::int64_t>(n));
+    common_attrs<3>(out, l, scene_path);
+    out.attr("omega", s.omega);
+    out.attr("rotation_period", s.rotation_period());
+    out.group_attr("frames", "species_names", {"small", "big"});
+    std::fprintf(stderr, "granular %s: drum %s (%s), %zu particles, %.4g rotations, %d thread(s) -> %s\n", kVersion,
+                 s.name.c_str(), scene_path.c_str(), n, s.rotations, omp_get_max_threads(), out_path.c_str());
+    r = run_drum(s, sim, &out, progress);
+  } else {
+    const BoxScene& s = *l.box;
+    BoxSim sim = make_box(s);
+    const auto n = std::visit([](auto& v) { return v.p.size(); }, sim);
+    H5Output out(out_path, 2, static_cast<std::int64_t>(n), true);
+    common_attrs<2>(out, l, scene_path);
+    out.attr("frequency", s.frequency);
+    out.attr("amplitude", s.amplitude);
+    out.attr("settle", s.settle);
+    out.attr("box_width", s.width);
+    out.attr("wall_radius", s.wall_radius);
+    out.group_attr("frames", "species_names", {"small", "big", "wall"});
+    std::fprintf(stderr, "granular %s: shaken box %s (%s), %zu particles, %.3g s settling + %.4g s shaking, %d thread(s) -> %s\n",
+                 kVersion, s.name.c_str(), scene_path.c_str(), n, s.settle, s.duration, omp_get_max_threads(),
+                 out_path.c_str());
+    r = run_box(s, sim, &out, progress);
+  }
+  std::fprintf(stderr, "done: %ld steps in %.1f s, %.3g particle-steps/s\n%s", r.steps, r.seconds,
+               r.particle_steps_per_second, r.timing.c_str());
+  return 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"granular: discrete-element engine for the rotating drum (Rapaport 2002) and the shaken box"};
+  CLI::App app{"granular: discrete-element engine for the rotating drum (Rapaport 2002) and the shaken box "
+               "(Poeschel and Herrmann 1995)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(kVersion));
 
@@ -78,17 +168,18 @@ int main(int argc, char** argv) {
   info->add_flag("--json", as_json, "print JSON");
 
   std::vector<int> bench_threads;
-  double settle = 0.5, bench_rot = 1.0;
-  auto* bench = app.add_subcommand("bench", "particle-steps per second for a drum scene");
+  double settle = -1.0, bench_rot = 1.0, bench_seconds = 1.0;
+  int repeat = 3;
+  bool bench_json = false;
+  auto* bench = app.add_subcommand("bench", "particle-steps per second for a scene");
   bench->add_option("scene", scene_path, "scene file (TOML)")->required();
   bench->add_option("--set", sets, "override a scene key: key=value (repeatable)");
   bench->add_option("--threads", bench_threads, "thread counts to measure (default: 1 and all cores)");
-  bench->add_option("--settle", settle, "rotations run before timing");
-  bench->add_option("--rotations", bench_rot, "rotations timed");
-  int repeat = 3;
+  bench->add_option("--settle", settle, "settling before timing: rotations (drum, default 0.5) or seconds (box, 1)");
+  bench->add_option("--rotations", bench_rot, "drum: rotations timed");
+  bench->add_option("--seconds", bench_seconds, "shaken box: seconds of shaking timed");
   bench->add_option("--repeat", repeat, "repetitions per thread count; the median is reported")
       ->check(CLI::PositiveNumber);
-  bool bench_json = false;
   bench->add_flag("--json", bench_json, "print JSON");
 
   CLI11_PARSE(app, argc, argv);
@@ -96,40 +187,17 @@ int main(int argc, char** argv) {
   try {
     if (*info) {
       const Loaded l = load(scene_path, sets);
-      const auto p = drum_particles(l.scene);
-      const auto j = info_json(l, p);
+      const auto j = info_json(l);
       if (as_json)
         std::cout << j.dump(2) << "\n";
       else
-        std::cout << l.toml << "\n# particles: " << p.size() << " (paper: " << l.scene.paper_n << ")\n";
+        std::cout << l.toml << "\n# particles: " << j["derived"]["particles"] << "\n";
       return 0;
     }
     if (*run) {
       if (threads > 0) omp_set_num_threads(threads);
       const Loaded l = load(scene_path, sets);  // all validation happens before the output is touched
-      if (out_path.empty()) out_path = l.scene.name + ".h5";
-      DrumSim sim = make_drum(l.scene);
-      const auto n = std::visit([](auto& s) { return s.p.size(); }, sim);
-      H5Output out(out_path, 3, static_cast<std::int64_t>(n));
-      out.attr("engine", std::string("granular-native"));
-      out.attr("engine_version", std::string(kVersion));
-      out.attr("scene_kind", std::string("drum"));
-      out.attr("scene_name", l.scene.name);
-      out.attr("scene_file", scene_path);
-      out.attr("scene_toml", l.toml);
-      out.attr("scene_json", l.json);
-      out.attr("omega", l.scene.omega);
-      out.attr("rotation_period", l.scene.rotation_period());
-      out.attr("threads", static_cast<std::int64_t>(omp_get_max_threads()));
-      out.group_attr("frames", "species_names", {"small", "big"});
-      std::fprintf(stderr, "granular %s: scene %s (%s), %zu particles, %.4g rotations, %d thread(s) -> %s\n",
-                   kVersion, l.scene.name.c_str(), scene_path.c_str(), n, l.scene.rotations, omp_get_max_threads(),
-                   out_path.c_str());
-      const bool progress = !quiet && isatty(fileno(stderr));
-      const RunReport r = run_drum(l.scene, sim, &out, progress);
-      std::fprintf(stderr, "done: %ld steps in %.1f s, %.3g particle-steps/s\n%s", r.steps, r.seconds,
-                   r.particle_steps_per_second, r.timing.c_str());
-      return 0;
+      return run_scene(l, scene_path, out_path, quiet);
     }
     if (*bench) {
       const Loaded l = load(scene_path, sets);
@@ -140,13 +208,15 @@ int main(int argc, char** argv) {
         omp_set_num_threads(t);
         // The machine is shared: repeat and report the median, with the spread.
         std::vector<RunReport> reps;
-        for (int k = 0; k < repeat; ++k) reps.push_back(bench_drum(l.scene, settle, bench_rot));
+        for (int k = 0; k < repeat; ++k)
+          reps.push_back(l.drum ? bench_drum(*l.drum, settle < 0 ? 0.5 : settle, bench_rot)
+                                : bench_box(*l.box, settle < 0 ? 1.0 : settle, bench_seconds));
         std::sort(reps.begin(), reps.end(), [](const RunReport& a, const RunReport& b) {
           return a.particle_steps_per_second < b.particle_steps_per_second;
         });
         const RunReport& r = reps[reps.size() / 2];
         if (base == 0.0) base = r.particle_steps_per_second;
-        res.push_back({{"scene", l.scene.name},
+        res.push_back({{"scene", l.name()},
                        {"threads", t},
                        {"particles", r.particles},
                        {"particle_steps_per_second", r.particle_steps_per_second},
@@ -158,7 +228,7 @@ int main(int argc, char** argv) {
                        {"steps", r.steps}});
         if (!bench_json)
           std::printf("scene %s  threads %d  %.3e particle-steps/s  (median of %d, range %.3e-%.3e; x%.2f)\n%s",
-                      l.scene.name.c_str(), t, r.particle_steps_per_second, repeat,
+                      l.name().c_str(), t, r.particle_steps_per_second, repeat,
                       reps.front().particle_steps_per_second, reps.back().particle_steps_per_second,
                       r.particle_steps_per_second / base, r.timing.c_str());
       }

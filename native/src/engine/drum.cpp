@@ -54,21 +54,6 @@ std::string format_duration(double sec) {
   return buf;
 }
 
-template <class Sim>
-std::string timing_summary(const Sim& sim, double total) {
-  std::ostringstream os;
-  for (int k = 0; k < static_cast<int>(Phase::count); ++k) {
-    const auto ph = static_cast<Phase>(k);
-    char buf[128];
-    std::snprintf(buf, sizeof buf, "  %-10s %8.2f s  %5.1f %%\n", PhaseTimers::name(ph), sim.timers.seconds(ph),
-                  total > 0 ? 100.0 * sim.timers.seconds(ph) / total : 0.0);
-    os << buf;
-  }
-  os << "  neighbour-list builds: " << sim.neighbors().builds() << ", pairs listed: " << sim.neighbors().n_pairs()
-     << "\n";
-  return os.str();
-}
-
 std::vector<double> slice_edges(const DrumScene& s) {
   const int ns = std::max(1, static_cast<int>(std::lround(s.length / s.profile_slice_width)));
   std::vector<double> e(ns + 1);
@@ -142,7 +127,7 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress) {
   r.particles = n;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(total) * n / r.seconds : 0.0;
-  r.timing = timing_summary(sim, r.seconds);
+  r.timing = phase_report(sim, r.seconds);
   return r;
 }
 

@@ -2,6 +2,8 @@
 #pragma once
 #include <array>
 #include <chrono>
+#include <cstdio>
+#include <sstream>
 #include <string>
 
 namespace granular {
@@ -35,5 +37,21 @@ class ScopedPhase {
   Phase ph_;
   PhaseTimers::Clock::time_point start_;
 };
+
+// Where the time of a run went, one line per phase, and the neighbour list's work.
+template <class Sim>
+std::string phase_report(const Sim& sim, double total_seconds) {
+  std::ostringstream os;
+  for (int k = 0; k < static_cast<int>(Phase::count); ++k) {
+    const auto ph = static_cast<Phase>(k);
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "  %-10s %8.2f s  %5.1f %%\n", PhaseTimers::name(ph), sim.timers.seconds(ph),
+                  total_seconds > 0 ? 100.0 * sim.timers.seconds(ph) / total_seconds : 0.0);
+    os << buf;
+  }
+  os << "  neighbour-list builds: " << sim.neighbors().builds() << ", pairs listed: " << sim.neighbors().n_pairs()
+     << "\n";
+  return os.str();
+}
 
 }  // namespace granular

@@ -4,7 +4,9 @@
 // NoMotion is the default for scenes without wall particles and compiles away.
 #pragma once
 #include <cmath>
+#include <algorithm>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "core/particles.hpp"
@@ -15,9 +17,12 @@ inline constexpr int kWallSpecies = 2;
 
 struct NoMotion {};
 
-// The box moves as y_box = A sin(phi(t)), phi = 2 pi int_0^t f dt', with the
-// frequency ramped linearly from f0 to f1 over [ramp_start, ramp_start + ramp_time]
-// (constant f0 when ramp_time = 0). Shaking starts at t = start.
+// The box moves as y_box = A s(t) sin(phi(t)), phi = 2 pi int f dt' from the
+// start of shaking, with the frequency ramped linearly from f0 to f1 over
+// [ramp_start, ramp_start + ramp_time] (constant f0 when ramp_time = 0).
+// Shaking starts at t = start; s rises linearly from 0 to 1 over the first
+// startup_cycles cycles (0: full amplitude at once, which jolts the bed with the
+// box's full speed A 2 pi f at the first step).
 template <int Dim>
 struct ShakerMotion {
   using V = Vec<Dim>;
@@ -26,6 +31,7 @@ struct ShakerMotion {
   double start = 0.0;       // shaking begins (after settling)
   double ramp_start = 0.0;  // relative to start
   double ramp_time = 0.0;
+  double startup_cycles = 0.0;
   std::vector<V> anchor;  // by particle id: rest position of each wall particle
 
   double frequency(double t) const {
@@ -43,9 +49,19 @@ struct ShakerMotion {
     const double b = std::max(0.0, u - ramp_start - ramp_time);
     return 2.0 * M_PI * (f0 * a + f0 * s + 0.5 * (f1 - f0) * s * s / ramp_time + f1 * b);
   }
-  double y(double t) const { return amplitude * std::sin(phase(t)); }
+  // Envelope s(t) and its time derivative.
+  double envelope(double t) const {
+    if (startup_cycles <= 0.0) return t > start ? 1.0 : 0.0;
+    return std::clamp(phase(t) / (2.0 * M_PI * startup_cycles), 0.0, 1.0);
+  }
+  double y(double t) const { return amplitude * envelope(t) * std::sin(phase(t)); }
   double vy(double t) const {
-    return t <= start ? 0.0 : amplitude * std::cos(phase(t)) * 2.0 * M_PI * frequency(t);
+    if (t <= start) return 0.0;
+    const double omega = 2.0 * M_PI * frequency(t), ph = phase(t);
+    double v = amplitude * envelope(t) * std::cos(ph) * omega;
+    if (startup_cycles > 0.0 && ph < 2.0 * M_PI * startup_cycles)
+      v += amplitude * std::sin(ph) * omega / (2.0 * M_PI * startup_cycles);
+    return v;
   }
 
   void place(ParticleStore<Dim>& p, std::size_t i, double t) const {

@@ -10,7 +10,8 @@ void check(herr_t e, const std::string& what, const std::string& path) {
 }
 }  // namespace
 
-H5Output::H5Output(const std::string& path, int dim, std::int64_t n) : path_(path), dim_(dim), n_(n) {
+H5Output::H5Output(const std::string& path, int dim, std::int64_t n, bool with_force)
+    : path_(path), dim_(dim), n_(n), with_force_(with_force) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions below, not stderr dumps
   file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (file_ < 0) throw std::runtime_error(path + ": cannot create the output file");
@@ -25,6 +26,7 @@ H5Output::H5Output(const std::string& path, int dim, std::int64_t n) : path_(pat
   f_pos_ = make(frames_, "position", H5T_NATIVE_DOUBLE, {un, ud});
   f_vel_ = make(frames_, "velocity", H5T_NATIVE_DOUBLE, {un, ud});
   f_ang_ = make(frames_, "angular_velocity", H5T_NATIVE_DOUBLE, {un, ua});
+  if (with_force) f_force_ = make(frames_, "force", H5T_NATIVE_DOUBLE, {un, ud});
   attr("schema", std::string("granular-frames"));
   attr("schema_version", std::int64_t{1});
   attr("dim", std::int64_t{dim});
@@ -32,8 +34,11 @@ H5Output::H5Output(const std::string& path, int dim, std::int64_t n) : path_(pat
 
 H5Output::~H5Output() {
   for (Appendable* a : {&f_time_, &f_step_, &f_id_, &f_species_, &f_diam_, &f_pos_, &f_vel_, &f_ang_, &p_time_,
-                        &p_frac_})
+                        &p_frac_, &f_force_})
     if (a->dset >= 0) H5Dclose(a->dset);
+  for (auto& a : series_)
+    if (a.dset >= 0) H5Dclose(a.dset);
+  if (series_group_ >= 0) H5Gclose(series_group_);
   if (profile_ >= 0) H5Gclose(profile_);
   if (frames_ >= 0) H5Gclose(frames_);
   if (file_ >= 0) H5Fclose(file_);
@@ -107,6 +112,20 @@ void H5Output::init_profile(const std::vector<double>& edges) {
 void H5Output::profile(double time, const std::vector<double>& frac) {
   append(p_time_, &time);
   append(p_frac_, frac.data());
+  check(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flushing", path_);
+}
+
+void H5Output::init_series(const std::string& group, const std::vector<std::pair<std::string, int>>& columns) {
+  series_group_ = H5Gcreate2(file_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  for (const auto& [name, width] : columns) {
+    std::vector<hsize_t> row;
+    if (width > 1) row.push_back(static_cast<hsize_t>(width));
+    series_.push_back(make(series_group_, name.c_str(), H5T_NATIVE_DOUBLE, row));
+  }
+}
+
+void H5Output::series(const std::vector<std::vector<double>>& row) {
+  for (std::size_t k = 0; k < series_.size(); ++k) append(series_[k], row[k].data());
   check(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flushing", path_);
 }
 

@@ -15,7 +15,8 @@ namespace granular {
 
 class H5Output {
  public:
-  H5Output(const std::string& path, int dim, std::int64_t n_particles);
+  // with_force: snapshots also carry each particle's contact force.
+  H5Output(const std::string& path, int dim, std::int64_t n_particles, bool with_force = false);
   ~H5Output();
   H5Output(const H5Output&) = delete;
   H5Output& operator=(const H5Output&) = delete;
@@ -31,6 +32,11 @@ class H5Output {
 
   void init_profile(const std::vector<double>& edges);
   void profile(double time, const std::vector<double>& small_fraction);
+
+  // A group of datasets that grow together by one row per sample (e.g. the
+  // big disk's trajectory); each column has a fixed row width.
+  void init_series(const std::string& group, const std::vector<std::pair<std::string, int>>& columns);
+  void series(const std::vector<std::vector<double>>& row);
 
   const std::string& path() const { return path_; }
 
@@ -52,7 +58,10 @@ class H5Output {
   std::int64_t n_;
   hid_t file_ = -1, frames_ = -1, profile_ = -1;
   Appendable f_time_, f_step_, f_id_, f_species_, f_diam_, f_pos_, f_vel_, f_ang_;
-  Appendable p_time_, p_frac_;
+  Appendable p_time_, p_frac_, f_force_;
+  bool with_force_ = false;
+  hid_t series_group_ = -1;
+  std::vector<Appendable> series_;
 };
 
 template <int Dim>
@@ -74,6 +83,12 @@ void H5Output::frame(double time, long step, const ParticleStore<Dim>& p) {
       v[q * Dim + c] = p.v[k][c];
     }
     for (int c = 0; c < na; ++c) w[q * na + c] = p.w[k][c];
+  }
+  if (with_force_) {
+    std::vector<double> f(n * Dim);
+    for (std::size_t q = 0; q < n; ++q)
+      for (int c = 0; c < Dim; ++c) f[q * Dim + c] = p.f[order[q]][c];
+    append(f_force_, f.data());
   }
   write_frame(time, step, id, sp, d, x, v, w);
 }

@@ -81,6 +81,13 @@ const toml::node* SceneFile::find(const std::string& key) const {
 
 bool SceneFile::has(const std::string& key) const { return find(key) != nullptr; }
 
+std::string SceneFile::peek_text(const std::string& key) const {
+  const auto* n = find(key);
+  if (!n) fail(key, "missing (required)");
+  if (!n->is_string()) fail(key, "must be a string");
+  return n->as_string()->get();
+}
+
 void SceneFile::set_default(const std::string& key, toml::node&& value) {
   const auto parts = split_key(key);
   toml::table* t = table_for(table_, parts, path_, key);

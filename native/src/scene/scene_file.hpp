@@ -39,6 +39,8 @@ class SceneFile {
   std::string choice(const std::string& key, const std::vector<std::string>& allowed, const std::string& fallback);
   bool flag(const std::string& key, bool fallback);
   bool has(const std::string& key) const;
+  // A string value without marking the key as read (to choose the scene reader).
+  std::string peek_text(const std::string& key) const;
 
   // Range checks that raise SceneError naming this file and key.
   double positive(const std::string& key, double v) const;

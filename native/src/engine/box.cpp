@@ -1,0 +1,167 @@
+#include "engine/box.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace granular {
+
+namespace {
+
+template <class Sim>
+void configure(Sim& sim, const BoxScene& s) {
+  std::vector<Eigen::Vector2d> anchors;
+  sim.p = box_particles(s, anchors);
+  double top = 0.0;
+  for (const auto& a : anchors) top = std::max(top, a.y());
+  const double xw = 0.5 * s.width + s.wall_radius;
+  sim.box.lo = Eigen::Vector2d(-xw - s.wall_radius - 1.0, -2.0 * s.wall_radius - s.amplitude - 1.0);
+  sim.box.hi = Eigen::Vector2d(xw + s.wall_radius + 1.0, top + 50.0);
+  sim.box.periodic = {false, false};
+  sim.box.finalize();
+  sim.law.young = s.young;  // Y
+  sim.law.gamma_n = s.gamma_n;
+  sim.law.gamma_s = s.gamma_s;
+  sim.law.mu = s.mu;
+  sim.integrator.dt = s.dt;
+  sim.integrator.gravity = Eigen::Vector2d(0.0, -s.gravity);  // F = -m g y^
+  auto& m = sim.integrator.motion;
+  m.anchor = anchors;
+  m.amplitude = s.amplitude;
+  m.f0 = s.frequency;
+  m.f1 = s.ramp_to;
+  m.start = s.settle;
+  m.ramp_start = s.ramp_start;
+  m.ramp_time = s.ramp_time;
+  m.startup_cycles = s.startup_cycles;
+  sim.skin = s.skin;
+  sim.exclude_species = kWallSpecies;  // wall particles do not interact with each other
+  sim.init();
+}
+
+template <class Sim>
+void check_contained(const Sim& sim, const BoxScene& s) {
+  const auto& m = sim.integrator.motion;
+  const double xw = 0.5 * s.width + s.wall_radius, floor = m.y(sim.time);
+  for (std::size_t i = 0; i < sim.p.size(); ++i) {
+    if (sim.p.species[i] == kWallSpecies) continue;
+    const auto& x = sim.p.x[i];
+    if (std::abs(x.x()) > xw || x.y() < floor - s.wall_radius || !std::isfinite(x.squaredNorm())) {
+      std::ostringstream os;
+      os << "grain id " << sim.p.id[i] << " escaped the box at t = " << sim.time << " s, position (" << x.x()
+         << ", " << x.y() << ") cm: the walls must hold every grain (close the wall-particle gaps or reduce dt)";
+      throw UnstableError(os.str());
+    }
+  }
+}
+
+template <class Sim>
+std::size_t big_index(const Sim& sim) {
+  for (std::size_t i = 0; i < sim.p.size(); ++i)
+    if (sim.p.species[i] == 1) return i;
+  return sim.p.size();
+}
+
+template <class Sim>
+RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress) {
+  const long total = std::lround((s.settle + s.duration) / s.dt);
+  const long settle_steps = std::lround(s.settle / s.dt);
+  const bool has_big = big_index(sim) < sim.p.size();
+  if (out && has_big)
+    out->init_series("trace", {{"time", 1}, {"cycle", 1}, {"box_y", 1}, {"big_position", 2}, {"big_velocity", 2}});
+  long snap_k = 0, trace_k = 0;
+  auto observe = [&](bool force_frame) {
+    ScopedPhase ph(sim.timers, Phase::observe);
+    const double c = s.cycle(sim.time);
+    const bool shaking = sim.step_count > settle_steps;
+    bool snap = force_frame, trace = false;
+    if (shaking && c >= (snap_k + 1) * s.snapshot_every_cycles) {
+      snap = true;
+      snap_k = static_cast<long>(std::floor(c / s.snapshot_every_cycles));
+    }
+    if (shaking && c * s.trace_per_cycle >= trace_k + 1) {
+      trace = true;
+      trace_k = static_cast<long>(std::floor(c * s.trace_per_cycle));
+    }
+    if (snap || trace) check_contained(sim, s);
+    if (out && snap) out->frame(sim.time, sim.step_count, sim.p);
+    if (out && trace && has_big) {
+      const std::size_t b = big_index(sim);
+      out->series({{sim.time}, {c}, {sim.integrator.motion.y(sim.time)},
+                   {sim.p.x[b].x(), sim.p.x[b].y()}, {sim.p.v[b].x(), sim.p.v[b].y()}});
+    }
+  };
+  observe(true);
+  sim.timers.reset();
+  const auto t0 = std::chrono::steady_clock::now();
+  auto last = t0;
+  const double n = static_cast<double>(sim.p.size());
+  for (long k = 1; k <= total; ++k) {
+    sim.step();
+    observe(k == settle_steps || k == total);
+    if (progress && (k % 500 == 0 || k == total)) {
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last > std::chrono::milliseconds(500) || k == total) {
+        last = now;
+        const double el = std::chrono::duration<double>(now - t0).count();
+        std::fprintf(stderr, "\r  t = %.2f / %.2f s (%s)   %.3g particle-steps/s   %.0f s left   ", sim.time,
+                     s.settle + s.duration, k <= settle_steps ? "settling" : "shaking", k * n / el,
+                     el / k * (total - k));
+        std::fflush(stderr);
+      }
+    }
+  }
+  if (progress) std::fprintf(stderr, "\n");
+  RunReport r;
+  r.steps = total;
+  r.particles = static_cast<long>(n);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.particle_steps_per_second = r.seconds > 0 ? total * n / r.seconds : 0.0;
+  r.timing = phase_report(sim, r.seconds);
+  return r;
+}
+
+}  // namespace
+
+BoxSim make_box(const BoxScene& s) {
+  BoxSim sim;
+  if (!s.literal_damping && s.gear) sim.emplace<0>();
+  if (!s.literal_damping && !s.gear) sim.emplace<1>();
+  if (s.literal_damping && s.gear) sim.emplace<2>();
+  if (s.literal_damping && !s.gear) sim.emplace<3>();
+  std::visit([&](auto& v) { configure(v, s); }, sim);
+  return sim;
+}
+
+RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress) {
+  return std::visit([&](auto& v) { return run_impl(s, v, out, progress); }, sim);
+}
+
+RunReport bench_box(const BoxScene& s, double settle, double seconds) {
+  BoxScene a = s;
+  a.settle = settle;
+  a.duration = 0.0;
+  BoxSim sim = make_box(a);
+  run_box(a, sim, nullptr, false);
+  // time `seconds` of shaking, continuing from the settled state
+  a.duration = seconds;
+  a.settle = 0.0;
+  return std::visit(
+      [&](auto& v) {
+        const long steps = std::lround(seconds / s.dt);
+        v.timers.reset();
+        const auto t0 = std::chrono::steady_clock::now();
+        for (long k = 0; k < steps; ++k) v.step();
+        RunReport r;
+        r.steps = steps;
+        r.particles = static_cast<long>(v.p.size());
+        r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        r.particle_steps_per_second = steps * static_cast<double>(v.p.size()) / r.seconds;
+        r.timing = phase_report(v, r.seconds);
+        return r;
+      },
+      sim);
+}
+
+}  // namespace granular

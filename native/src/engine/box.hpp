@@ -1,0 +1,34 @@
+// The shaken box as a simulation: the scene's integrator and damping reading
+// pick one concrete Simulation type (held in a std::variant, visited once).
+#pragma once
+#include <variant>
+
+#include "contact/poeschel_herrmann.hpp"
+#include "engine/drum.hpp"  // RunReport
+#include "engine/simulation.hpp"
+#include "integrate/gear.hpp"
+#include "integrate/leapfrog.hpp"
+#include "integrate/motion.hpp"
+#include "io/h5_output.hpp"
+#include "scene/box_scene.hpp"
+
+namespace granular {
+
+template <bool Literal, class Integrator>
+using BoxSimOf = Simulation<2, PoeschelHerrmannLaw<2, Literal>, Integrator>;
+using BoxGear = Gear5<2, ShakerMotion<2>>;
+using BoxVerlet = Leapfrog<2, ShakerMotion<2>>;
+using BoxSim = std::variant<BoxSimOf<false, BoxGear>, BoxSimOf<false, BoxVerlet>, BoxSimOf<true, BoxGear>,
+                            BoxSimOf<true, BoxVerlet>>;
+
+BoxSim make_box(const BoxScene& s);
+
+// Settles for s.settle seconds (walls at rest), then shakes for s.duration.
+// Writes snapshots (with contact forces) at the vibration's nodes and the big
+// disk's trajectory to `out` (may be null). Stops with UnstableError if a
+// grain leaves the box.
+RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress);
+
+RunReport bench_box(const BoxScene& s, double settle, double seconds);
+
+}  // namespace granular

@@ -1,0 +1,145 @@
+#include "scene/box_scene.hpp"
+
+#include <cmath>
+#include <random>
+
+#include "integrate/motion.hpp"
+
+namespace granular {
+
+double BoxScene::mass(double r) const { return (mass_area ? 1.0 : 2.0) * M_PI * r * r * density; }
+
+BoxScene read_box_scene(SceneFile& f) {
+  BoxScene s;
+  f.choice("scene.kind", {"shaken_box"});
+  s.name = f.text("scene.name");
+  s.description = f.text("scene.description", "");
+
+  s.width = f.positive("box.width", f.number("box.width", 60.0));
+  s.wall_height = f.positive("box.wall_height", f.number("box.wall_height", 100.0));
+  s.wall_radius = f.positive("box.wall_radius", f.number("box.wall_radius", 1.0));
+  s.wall_spacing = f.positive("box.wall_spacing", f.number("box.wall_spacing", 2.0));
+  s.wall_infinite_mass = f.choice("box.wall_mass", {"particle", "infinite"}, "particle") == "infinite";
+
+  s.amplitude = f.non_negative("shaking.amplitude", f.number("shaking.amplitude", 2.0));
+  s.frequency = f.positive("shaking.frequency", f.number("shaking.frequency"));
+  s.ramp_to = f.positive("shaking.ramp_to", f.number("shaking.ramp_to", s.frequency));
+  s.ramp_start = f.non_negative("shaking.ramp_start", f.number("shaking.ramp_start", 0.0));
+  s.ramp_time = f.non_negative("shaking.ramp_time", f.number("shaking.ramp_time", 0.0));
+  s.startup_cycles = f.non_negative("shaking.startup_cycles", f.number("shaking.startup_cycles", 2.0));
+  if (s.ramp_to != s.frequency && s.ramp_time == 0.0)
+    f.fail("shaking.ramp_time", "must be > 0 when shaking.ramp_to differs from shaking.frequency");
+
+  s.count = f.integer("particles.count", 950);
+  if (s.count < 1) f.fail("particles.count", "must be >= 1");
+  s.radius_min = f.positive("particles.radius_min", f.number("particles.radius_min", 0.85));
+  s.radius_max = f.positive("particles.radius_max", f.number("particles.radius_max", 1.15));
+  if (s.radius_max < s.radius_min) f.fail("particles.radius_max", "must be >= particles.radius_min");
+  s.density = f.positive("particles.density", f.number("particles.density", 1.0));
+  s.mass_area = f.choice("particles.mass_rule", {"paper", "area"}, "paper") == "area";
+  const long seed = f.integer("particles.seed", 1);
+  if (seed < 0) f.fail("particles.seed", "must be >= 0");
+  s.seed = static_cast<std::uint64_t>(seed);
+
+  s.big = f.flag("big.enabled", true);
+  s.big_radius = f.positive("big.radius", f.number("big.radius", 4.0));
+  s.big_gap = f.non_negative("big.gap", f.number("big.gap", 2.0));
+
+  f.choice("contact.law", {"poeschel_herrmann"}, "poeschel_herrmann");
+  s.young = f.positive("contact.young", f.number("contact.young", 3e6));
+  s.gamma_n = f.non_negative("contact.gamma_n", f.number("contact.gamma_n", 100.0));
+  s.gamma_s = f.non_negative("contact.gamma_s", f.number("contact.gamma_s", 1.0));
+  s.mu = f.non_negative("contact.mu", f.number("contact.mu", 0.5));
+  s.literal_damping = f.choice("contact.damping", {"normal", "literal"}, "normal") == "literal";
+  s.gravity = f.non_negative("gravity.g", f.number("gravity.g", 981.0));
+
+  s.gear = f.choice("integrator.kind", {"gear", "verlet"}, "gear") == "gear";
+  s.dt = f.positive("integrator.dt", f.number("integrator.dt", 5e-5));
+  s.skin = f.positive("neighbor.skin", f.number("neighbor.skin", 0.2));
+
+  s.settle = f.non_negative("run.settle", f.number("run.settle", 1.0));
+  s.duration = f.non_negative("run.duration", f.number("run.duration"));
+  s.snapshot_every_cycles = f.positive("run.snapshot_every_cycles", f.number("run.snapshot_every_cycles", 1.0));
+  s.trace_per_cycle = f.integer("run.trace_per_cycle", 20);
+  if (s.trace_per_cycle < 1) f.fail("run.trace_per_cycle", "must be >= 1");
+
+  f.text("paper.note", "");
+  if (s.big && 2.0 * s.big_radius >= s.width) f.fail("big.radius", "the big disk does not fit in the box");
+  if (s.wall_spacing > 2.0 * s.wall_radius + 2.0 * s.radius_min)
+    f.fail("box.wall_spacing", "leaves gaps wider than the smallest grain");
+  f.reject_unknown_keys();
+  return s;
+}
+
+double BoxScene::cycle(double t) const {
+  ShakerMotion<2> m;
+  m.f0 = frequency;
+  m.f1 = ramp_to;
+  m.start = settle;
+  m.ramp_start = ramp_start;
+  m.ramp_time = ramp_time;
+  return m.phase(t) / (2.0 * M_PI);
+}
+
+ParticleStore<2> box_particles(const BoxScene& s, std::vector<Eigen::Vector2d>& anchors) {
+  const double rw = s.wall_radius, half = 0.5 * s.width;
+  std::mt19937_64 gen(s.seed);
+  auto uni = [&] { return static_cast<double>(gen() >> 11) * 0x1.0p-53; };
+  const Eigen::Vector2d big_c(0.0, s.big_gap + s.big_radius);
+
+  // Small disks on a loose square lattice (pitch 2 R_max + 0.1 cm), jittered,
+  // from the floor up, skipping the big disk; they settle during run.settle.
+  struct Grain {
+    Eigen::Vector2d x, v;
+    double r;
+  };
+  std::vector<Grain> grains;
+  const double pitch = 2.0 * s.radius_max + 0.1;
+  const int per_row = std::max(1, static_cast<int>(std::floor(s.width / pitch)));
+  double top = 0.0;
+  for (int row = 0; static_cast<long>(grains.size()) < s.count; ++row) {
+    const double y = s.radius_max + 0.05 + row * pitch;
+    for (int c = 0; c < per_row && static_cast<long>(grains.size()) < s.count; ++c) {
+      const double x = -half + pitch * (c + 0.5) + 0.04 * (uni() - 0.5);
+      if (s.big && std::hypot(x - big_c.x(), y - big_c.y()) < s.big_radius + s.radius_max + 0.05) continue;
+      const double r = s.radius_min + (s.radius_max - s.radius_min) * uni();  // R uniform in [0.85, 1.15]
+      grains.push_back({{x, y}, {0.5 * (uni() - 0.5), 0.5 * (uni() - 0.5)}, r});
+      top = std::max(top, y + r);
+    }
+  }
+
+  ParticleStore<2> p;
+  anchors.clear();
+  const double wall_m = s.mass(rw);
+  auto add_wall = [&](double x, double y) {
+    // Wall particles: prescribed motion, no rotation. Their own mass enters
+    // m_eff (Eq. (5)) unless box.wall_mass = "infinite".
+    p.add({x, y}, Eigen::Vector2d::Zero(), Ang<2>::Zero(), 2 * rw, wall_m, 0.5 * wall_m * rw * rw, kWallSpecies);
+    if (s.wall_infinite_mass) p.inv_m.back() = 0.0;
+    anchors.emplace_back(x, y);
+  };
+  // Floor: centres at y = -rw (floor surface at y = 0), spanning the side walls.
+  const double xw = half + rw;  // side-wall centre lines
+  const int n_floor = static_cast<int>(std::ceil(2 * xw / s.wall_spacing));
+  for (int k = 0; k <= n_floor; ++k) add_wall(-xw + 2 * xw * k / n_floor, -rw);
+  // Side walls as high as asked, and at least above the loose initial packing.
+  const double height = std::max(s.wall_height, top + pitch);
+  const int n_side = static_cast<int>(std::ceil((height + rw) / s.wall_spacing));
+  for (int k = 1; k <= n_side; ++k) {
+    const double y = -rw + k * s.wall_spacing;
+    add_wall(-xw, y);
+    add_wall(xw, y);
+  }
+  if (s.big) {
+    const double m = s.mass(s.big_radius);
+    p.add(big_c, Eigen::Vector2d::Zero(), Ang<2>::Zero(), 2 * s.big_radius, m, 0.5 * m * s.big_radius * s.big_radius,
+          1);
+  }
+  for (const auto& g : grains) {
+    const double m = s.mass(g.r);
+    p.add(g.x, g.v, Ang<2>::Zero(), 2 * g.r, m, 0.5 * m * g.r * g.r, 0);  // disk: I = m R^2 / 2
+  }
+  return p;
+}
+
+}  // namespace granular
