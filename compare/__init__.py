@@ -7,9 +7,10 @@ comparisons only ever go through :func:`compare.reader.read_run`.
 
 from .reader import Frames, Profile, Run, read_run
 from .bands import BandCount, BandFormation
+from .box import BigDiskHeight, ConvectiveFlux, ForceRatio, VelocityField
 from .profile import AxialProfile
 from .spacetime import SpaceTime, axial_profile
 from .surface import FreeSurface
 
 __all__ = ["Frames", "Profile", "Run", "read_run", "SpaceTime", "axial_profile", "AxialProfile", "BandCount",
-           "BandFormation", "FreeSurface"]
+           "BandFormation", "FreeSurface", "BigDiskHeight", "ConvectiveFlux", "ForceRatio", "VelocityField"]

@@ -58,6 +58,7 @@ def main(argv=None):
     o = sub.add_parser("observe", help="every drum observable of a run")
     o.add_argument("run")
     o.add_argument("--json", action="store_true", help="print JSON (the only format for now)")
+    o.add_argument("--reference", help="shaken box: a run without the big disk, for the force ratio")
     pl = sub.add_parser("plot", help="write every figure of a run")
     pl.add_argument("run")
     pl.add_argument("-o", "--output", required=True, help="directory for the PNGs")
@@ -90,7 +91,7 @@ def main(argv=None):
         try:
             if args.command == "observe":
                 import json
-                print(json.dumps(observe(args.run, params), indent=2))
+                print(json.dumps(observe(args.run, params, reference=args.reference), indent=2))
             else:
                 for path in plot_all(args.run, args.output, params):
                     print(path)

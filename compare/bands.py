@@ -9,6 +9,7 @@ occupancy and only the noise of a random assignment.
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from ._common import Result
 from .profile import drum_length, wrapped_y
 from .spacetime import SpaceTime, axial_profile
 
@@ -114,16 +115,7 @@ def _profile(run):
     return st.time_rotations, st.y_edges, st.small_fraction
 
 
-class _Result:
-    _name = "observable"
-
-    def _get(self, key):
-        if getattr(self, "_r", None) is None:
-            raise RuntimeError(f"{self._name}: call compute(run) before reading results")
-        return self._r[key]
-
-
-class BandCount(_Result):
+class BandCount(Result):
     """Number of bands at every profile sample.
 
     smoothing: Gaussian sigma in slices; threshold: in units of the random
@@ -133,14 +125,12 @@ class BandCount(_Result):
     the last ``final_window`` rotations.
     """
 
-    _name = "BandCount"
-
     def __init__(self, smoothing=2.0, threshold=4.0, min_width=3, early_window=20.0, final_window=20.0,
                  shuffles=32, seed=0):
         self.smoothing, self.threshold, self.min_width = float(smoothing), float(threshold), int(min_width)
         self.early_window, self.final_window = float(early_window), float(final_window)
         self.mixture = RandomMixture(shuffles, seed)
-        self._r = None
+        self._result = None
 
     def compute(self, run, start=None):
         t, edges, frac = _profile(run)
@@ -156,7 +146,7 @@ class BandCount(_Result):
             return int(np.bincount(sel).argmax()) if sel.size else None
 
         t0 = float(t[0]) if start is None else float(start)
-        self._r = {"time_rotations": t, "counts": counts, "noise_sigma": noise, "threshold_abs": thr,
+        self._result = {"time_rotations": t, "counts": counts, "noise_sigma": noise, "threshold_abs": thr,
                    "mean": mean, "periodic": periodic,
                    "early": mode_in(t0, t0 + self.early_window) if t.size else None,
                    "final": mode_in(t[-1] - self.final_window, t[-1]) if t.size else None,
@@ -192,7 +182,7 @@ class BandCount(_Result):
         return ax
 
 
-class BandFormation(_Result):
+class BandFormation(Result):
     """Band formation time from a segregation order parameter.
 
     R(t) = largest Fourier amplitude of the profile deviation over modes with
@@ -202,12 +192,10 @@ class BandFormation(_Result):
     averaged R stays >= ``threshold`` to the end of the run (None if never).
     """
 
-    _name = "BandFormation"
-
     def __init__(self, threshold=3.0, window=5.0, min_wavelength=8.0, shuffles=32, seed=0):
         self.threshold, self.window, self.min_wavelength = float(threshold), float(window), float(min_wavelength)
         self.mixture = RandomMixture(shuffles, seed)
-        self._r = None
+        self._result = None
 
     def compute(self, run):
         t, edges, frac = _profile(run)
@@ -233,7 +221,7 @@ class BandFormation(_Result):
             below = np.nonzero(~above)[0]
             first = 0 if below.size == 0 else below[-1] + 1
             formation = float(t[first])
-        self._r = {"time_rotations": t, "order": order, "smoothed": smoothed, "formation": formation,
+        self._result = {"time_rotations": t, "order": order, "smoothed": smoothed, "formation": formation,
                    "modes": np.array(modes), "reference": ref, "max_mode": max_mode}
         return self
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._common import clean_json
 from .bands import BandCount, BandFormation
 from .profile import AxialProfile
 from .reader import read_run
@@ -30,21 +31,6 @@ DEFAULTS = {
 }
 
 
-def _clean(x):
-    """JSON-safe: numpy scalars to Python, NaN/inf to None."""
-    if isinstance(x, dict):
-        return {k: _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _clean(x.tolist())
-    if isinstance(x, np.generic):
-        x = x.item()
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    return x
-
-
 def analyse(run, params=None):
     """Compute every observable; returns the observable objects by name."""
     p = dict(DEFAULTS, **(params or {}))
@@ -64,9 +50,13 @@ def analyse(run, params=None):
     return out
 
 
-def observe(path, params=None):
-    """Every observable of the run in ``path`` as a JSON-ready dict."""
+def observe(path, params=None, reference=None):
+    """Every observable of the run in ``path`` as a JSON-ready dict (drum or
+    shaken box; ``reference``: for a box, a run without the big disk)."""
     run = read_run(path)
+    if run.attrs.get("scene_kind") == "shaken_box":
+        from .box import observe_box
+        return observe_box(run, reference=reference)
     obs = analyse(run, params)
     st = obs["spacetime"]
     t = st.time_rotations
@@ -86,7 +76,7 @@ def observe(path, params=None):
     }
     if "surface" in obs:
         d["surface"] = obs["surface"].as_dict()
-    return _clean(d)
+    return clean_json(d)
 
 
 def plot_all(path, outdir, params=None):
@@ -94,9 +84,11 @@ def plot_all(path, outdir, params=None):
     from matplotlib.figure import Figure
 
     run = read_run(path)
-    obs = analyse(run, params)
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
+    if run.attrs.get("scene_kind") == "shaken_box":
+        return _plot_box(run, outdir)
+    obs = analyse(run, params)
     name = f"{run.attrs.get('engine', '?')}, scene {run.attrs.get('scene_name', '?')}"
     written = []
 
@@ -122,4 +114,24 @@ def plot_all(path, outdir, params=None):
         obs["surface"].plot(fig.add_subplot())
         written.append(outdir / "surface.png")
         fig.savefig(written[-1], dpi=120)
+    return written
+
+
+def _plot_box(run, outdir):
+    """big_disk_height.png (Fig. 4), flux.png (Fig. 3), velocity.png (Fig. 1)."""
+    from matplotlib.figure import Figure
+
+    from .box import BigDiskHeight, ConvectiveFlux, VelocityField, read_trace
+
+    written = []
+    name = f"{run.attrs.get('engine', '?')}, {run.attrs.get('scene_name', '?')}"
+    parts = [("flux.png", ConvectiveFlux, (5, 6)), ("velocity.png", VelocityField, (6, 7))]
+    if read_trace(run) is not None:
+        parts.insert(0, ("big_disk_height.png", BigDiskHeight, (8, 4)))
+    for fname, cls, size in parts:
+        fig = Figure(figsize=size, layout="constrained")
+        ax = cls().compute(run).plot(fig.add_subplot())
+        ax.set_title(f"{name}: {ax.get_title()}", fontsize=9)
+        written.append(outdir / fname)
+        fig.savefig(written[-1], dpi=110)
     return written

@@ -2,6 +2,7 @@
 against the engine's own per-sample profile where the run has one."""
 import numpy as np
 
+from ._common import Result
 from .spacetime import axial_profile
 
 
@@ -26,7 +27,7 @@ def drum_length(run):
         raise ValueError(f"{run.path}: not a drum run (no drum.length in the scene)") from None
 
 
-class AxialProfile:
+class AxialProfile(Result):
     """Volume-weighted small fraction in axial slices, from the snapshots.
 
     ``compute(run)`` slices every frame (slice edges: the engine's /profile
@@ -38,7 +39,6 @@ class AxialProfile:
 
     def __init__(self, slice_width=1.0):
         self.slice_width = float(slice_width)
-        self._r = None
 
     def compute(self, run):
         length = drum_length(run)
@@ -63,14 +63,9 @@ class AxialProfile:
                     d = float(np.max(np.abs(a[ok] - b[ok]))) if ok.any() else 0.0
                     worst = d if worst is None else max(worst, d)
                 compared += 1
-        self._r = {"time_rotations": run.frames.time / run.rotation_period, "edges": edges,
+        self._result = {"time_rotations": run.frames.time / run.rotation_period, "edges": edges,
                    "small_fraction": frac, "engine_max_difference": worst, "frames_compared": compared}
         return self
-
-    def _get(self, key):
-        if self._r is None:
-            raise RuntimeError("AxialProfile: call compute(run) before reading results")
-        return self._r[key]
 
     time_rotations = property(lambda self: self._get("time_rotations"))
     edges = property(lambda self: self._get("edges"))
