@@ -290,3 +290,41 @@ TEST(ShakenFloor, DiskAboveLiftOffLeavesTheFloor) {
   omp_set_num_threads(1);
   EXPECT_LT((min_overlap_on_shaken_floor<Gear5<2, ShakerMotion<2>>>(2.0, 5.0, 5, 5e-5)), 0.0);
 }
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "engine/box.hpp"
+
+// Through a real box run (list rebuilds reorder the particles): every wall
+// particle sits at its rest position plus y_box(t), with the box's velocity.
+TEST(WallParticles, FollowTheBoxExactly) {
+  omp_set_num_threads(2);
+  const char* src = std::getenv("GRANULAR_SOURCE_DIR");
+  const auto path = std::filesystem::path(src ? src : ".") / "scenes/box/f3.0_big.toml";
+  SceneFile f(path.string(), {"particles.count=150", "box.width=20", "run.settle=0.05", "run.duration=0.3"});
+  const BoxScene s = read_box_scene(f);
+  std::vector<Eigen::Vector2d> anchors;
+  box_particles(s, anchors);
+  BoxSim sim = make_box(s);
+  std::visit(
+      [&](auto& v) {
+        const long steps = std::lround((s.settle + s.duration) / s.dt);
+        for (long k = 0; k < steps; ++k) v.step();
+        EXPECT_GT(v.neighbors().builds(), 2);
+        const auto& m = v.integrator.motion;
+        ASSERT_GT(std::abs(m.y(v.time)), 0.1);  // the box is well away from rest
+        int walls = 0;
+        for (std::size_t i = 0; i < v.p.size(); ++i) {
+          if (v.p.species[i] != kWallSpecies) continue;
+          ++walls;
+          const auto& a = anchors[static_cast<std::size_t>(v.p.id[i])];
+          // to rounding: the engine and the test compile the same formula separately
+          EXPECT_EQ(v.p.x[i].x(), a.x());
+          EXPECT_NEAR(v.p.x[i].y(), a.y() + m.y(v.time), 1e-12);
+          EXPECT_NEAR(v.p.v[i].y(), m.vy(v.time), 1e-10);
+        }
+        EXPECT_EQ(walls, static_cast<int>(anchors.size()));
+      },
+      sim);
+}

@@ -138,3 +138,76 @@ TEST(Scenes, ErrorsNameFileKeyAndReason) {
   const std::string syntax = error_of("[scene\nkind=");
   EXPECT_NE(syntax.find("not a valid TOML file"), std::string::npos);
 }
+
+// ---- shaken box ----------------------------------------------------------
+
+#include "integrate/motion.hpp"
+#include "scene/box_scene.hpp"
+
+TEST(BoxScenes, AllParseWithThePapersGrainsAndWalls) {
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(source_dir() / "scenes" / "box")) {
+    if (e.path().extension() != ".toml") continue;
+    ++n;
+    SceneFile f(e.path().string(), {});
+    const BoxScene s = read_box_scene(f);
+    std::vector<Eigen::Vector2d> anchors;
+    const auto p = box_particles(s, anchors);
+    long grains = 0, big = 0, walls = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      grains += p.species[i] == 0;
+      big += p.species[i] == 1;
+      walls += p.species[i] == kWallSpecies;
+      if (p.species[i] == 0) {
+        EXPECT_GE(p.d[i], 2 * 0.85);
+        EXPECT_LE(p.d[i], 2 * 1.15);
+        const double r = 0.5 * p.d[i];
+        EXPECT_DOUBLE_EQ(1.0 / p.inv_m[i], 2 * M_PI * r * r);  // m = 2 pi R^2 rho, rho = 1
+      }
+    }
+    EXPECT_EQ(grains, 950) << e.path();
+    EXPECT_EQ(big, s.big ? 1 : 0) << e.path();
+    EXPECT_EQ(static_cast<std::size_t>(walls), anchors.size());
+    // no initial overlaps among grains and the big disk
+    for (std::size_t i = 0; i < p.size(); ++i)
+      for (std::size_t j = i + 1; j < p.size(); ++j)
+        if (p.species[i] != kWallSpecies && p.species[j] != kWallSpecies)
+          ASSERT_GT((p.x[i] - p.x[j]).norm(), 0.5 * (p.d[i] + p.d[j])) << e.path();
+  }
+  EXPECT_EQ(n, 13);  // 2.6/2.8/3.0 Hz with and without the big disk, five radii, two ramps
+}
+
+TEST(BoxScenes, WallGapsThatLeakAreRejected) {
+  const auto path = (source_dir() / "scenes/box/f3.0_big.toml").string();
+  SceneFile f(path, {"box.wall_spacing=4.0"});
+  try {
+    read_box_scene(f);
+    FAIL() << "accepted a wall spacing that lets grains through";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("box.wall_spacing"), std::string::npos);
+  }
+}
+
+TEST(BoxScenes, ShakerFollowsTheSine) {
+  ShakerMotion<2> m;
+  m.amplitude = 2.0;
+  m.f0 = m.f1 = 3.0;
+  m.start = 1.0;
+  for (double t : {1.01, 1.3, 2.77, 10.0}) {
+    EXPECT_NEAR(m.y(t), 2.0 * std::sin(2 * M_PI * 3.0 * (t - 1.0)), 1e-12);
+    EXPECT_NEAR(m.vy(t), 2.0 * 2 * M_PI * 3.0 * std::cos(2 * M_PI * 3.0 * (t - 1.0)), 1e-9);
+  }
+  EXPECT_EQ(m.y(0.5), 0.0);
+  // a ramp 2 -> 4 Hz over 10 s: the phase is the integral of f
+  m.f1 = 4.0;
+  m.f0 = 2.0;
+  m.ramp_time = 10.0;
+  EXPECT_NEAR(m.phase(1.0 + 10.0) / (2 * M_PI), 30.0, 1e-12);  // mean frequency 3 Hz over 10 s
+  EXPECT_NEAR(m.frequency(1.0 + 5.0), 3.0, 1e-12);
+  // velocity is the derivative of position, also during the start-up envelope
+  m.startup_cycles = 2.0;
+  for (double t : {1.2, 1.9, 5.0}) {
+    const double h = 1e-6;
+    EXPECT_NEAR(m.vy(t), (m.y(t + h) - m.y(t - h)) / (2 * h), 1e-5);
+  }
+}
