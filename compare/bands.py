@@ -30,11 +30,29 @@ def deviation(row, mean):
     return np.where(np.isnan(d), 0.0, d)
 
 
-def smooth(dev, sigma, periodic):
-    """Gaussian smoothing along the axis, wrapping around for periodic ends."""
+def slice_weights(run, edges):
+    """Mean particle volume (sum of d^3) per slice over all snapshots: the
+    weight of each slice's concentration. Slices near a cap hold fewer
+    particles and their concentration is correspondingly noisier."""
+    w = np.zeros(len(edges) - 1)
+    for f in range(run.frames.n_frames):
+        w += np.histogram(wrapped_y(run, f), bins=edges, weights=run.frames.diameter[f] ** 3)[0]
+    w /= max(1, run.frames.n_frames)
+    return w / w.mean() if w.mean() > 0 else np.ones_like(w)
+
+
+def smooth(dev, sigma, periodic, weights=None):
+    """Gaussian smoothing along the axis as a normalised convolution,
+    sum(G w dev) / sum(G w): a sparsely filled slice counts for little, and
+    nothing is assumed beyond a cap. Periodic ends wrap around."""
+    dev = np.asarray(dev, dtype=np.float64)
     if sigma <= 0:
-        return np.asarray(dev, dtype=np.float64)
-    return gaussian_filter1d(np.asarray(dev, dtype=np.float64), sigma, mode="wrap" if periodic else "nearest")
+        return dev
+    w = np.ones_like(dev) if weights is None else np.asarray(weights, dtype=np.float64)
+    mode = "wrap" if periodic else "constant"
+    num = gaussian_filter1d(w * dev, sigma, mode=mode)
+    den = gaussian_filter1d(w, sigma, mode=mode)
+    return np.divide(num, den, out=np.zeros_like(num), where=den > 0)
 
 
 def mode_amplitude(dev, min_modes=1, max_mode=None):
@@ -91,7 +109,7 @@ class RandomMixture:
         self.shuffles = int(shuffles)
         self.seed = int(seed)
 
-    def compute(self, run, edges, sigma, min_modes=1, max_mode=None, frame=-1):
+    def compute(self, run, edges, sigma, min_modes=1, max_mode=None, frame=-1, weights=None):
         rng = np.random.default_rng(self.seed)
         y = wrapped_y(run, frame)
         d = run.frames.diameter[frame]
@@ -103,8 +121,9 @@ class RandomMixture:
             row = axial_profile(y, d[perm], sp[perm], edges)
             mean = float((d[perm] ** 3)[sp[perm] == 0].sum() / (d ** 3).sum())
             dev = deviation(row, mean)
-            sm.append(smooth(dev, sigma, periodic))
-            amps.append(mode_amplitude(dev, min_modes, max_mode)[0])
+            sm.append(smooth(dev, sigma, periodic, weights))
+            w = 1.0 if weights is None else weights
+            amps.append(mode_amplitude(w * dev, min_modes, max_mode)[0])
         self.noise_sigma = float(np.std(np.concatenate(sm)))
         self.mode_amplitude = float(np.mean(amps))
         return self
@@ -136,9 +155,10 @@ class BandCount(Result):
         t, edges, frac = _profile(run)
         periodic = _periodic(run)
         mean = mean_small_fraction(run)
-        noise = self.mixture.compute(run, edges, self.smoothing).noise_sigma
+        w = slice_weights(run, edges)
+        noise = self.mixture.compute(run, edges, self.smoothing, weights=w).noise_sigma
         thr = self.threshold * noise
-        counts = np.array([count_bands(smooth(deviation(r, mean), self.smoothing, periodic), thr, self.min_width,
+        counts = np.array([count_bands(smooth(deviation(r, mean), self.smoothing, periodic, w), thr, self.min_width,
                                        periodic) for r in frac], dtype=int)
 
         def mode_in(lo, hi):
@@ -202,10 +222,11 @@ class BandFormation(Result):
         length = drum_length(run)
         max_mode = max(1, int(length // self.min_wavelength))
         mean = mean_small_fraction(run)
-        ref = self.mixture.compute(run, edges, 0.0, 1, max_mode).mode_amplitude
+        w = slice_weights(run, edges)
+        ref = self.mixture.compute(run, edges, 0.0, 1, max_mode, weights=w).mode_amplitude
         amp, modes = [], []
         for r in frac:
-            a, k = mode_amplitude(deviation(r, mean), 1, max_mode)
+            a, k = mode_amplitude(w * deviation(r, mean), 1, max_mode)
             amp.append(a)
             modes.append(k)
         order = np.array(amp) / ref

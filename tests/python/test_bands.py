@@ -3,7 +3,7 @@ and on a short real native run."""
 import numpy as np
 import pytest
 
-from compare.bands import BandCount, BandFormation, count_bands
+from compare.bands import BandCount, BandFormation, count_bands, smooth
 from compare.reader import read_run
 from synthetic import banded_y, random_bed, species_and_diameters, write_drum_run
 
@@ -104,3 +104,22 @@ def test_results_before_compute_raise():
         BandCount().counts
     with pytest.raises(RuntimeError):
         BandFormation().formation_time
+
+
+def test_a_sparse_end_slice_does_not_erase_the_end_band():
+    """Near a cap the last slice may hold a single particle, so its
+    concentration is 0 or 1. Smoothing weights each slice by its particle
+    volume (normalised convolution), so that slice cannot swamp the band next
+    to it. The profile here is drum #R's final one in outline: a weakly
+    big-rich end band and one small particle alone in the last slice."""
+    dev = np.full(128, 0.3)
+    dev[:40] = -0.3
+    dev[112:] = -0.2          # big-rich end band
+    dev[127] = 0.7            # the lone small particle
+    w = np.ones(128)
+    w[127] = 0.05             # ... in a slice holding 5 % of a normal slice's volume
+    sm = smooth(dev, 2.0, periodic=False, weights=w)
+    np.testing.assert_allclose(sm[118:], -0.2, atol=0.03)
+    assert count_bands(sm, 0.15, 3, periodic=False) == 3
+    # without the weights the spike pulls the band's end up to the mean and beyond
+    assert smooth(dev, 2.0, periodic=False)[127] > 0.0
