@@ -4,6 +4,7 @@
     python3 -m compare observe OUT.h5 --json            every observable as JSON
     python3 -m compare plot OUT.h5 -o DIR               every figure
     python3 -m compare table1 RUN_DIR -o docs/table1.md  the Table I reproduction
+    python3 -m compare onset RUN.h5... [--within S]     shaken box: onset frequency over packings
 
 
 Expected failures (missing file, wrong schema, not a drum) print one line to
@@ -62,6 +63,9 @@ def main(argv=None):
     pl = sub.add_parser("plot", help="write every figure of a run")
     pl.add_argument("run")
     pl.add_argument("-o", "--output", required=True, help="directory for the PNGs")
+    on = sub.add_parser("onset", help="shaken box: rising fraction per frequency and the onset frequency")
+    on.add_argument("runs", nargs="+", help="box runs with a big disk, one packing each")
+    on.add_argument("--within", type=float, default=None, help="seconds of shaking allowed to reach the top")
     tb = sub.add_parser("table1", help="docs/table1.md from a directory of Table I runs")
     tb.add_argument("run_dir")
     tb.add_argument("-o", "--output", default="docs/table1.md")
@@ -70,6 +74,16 @@ def main(argv=None):
         sp.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                         help="analysis parameter, e.g. formation.threshold=3 (keys: %s)" % ", ".join(DEFAULTS))
     args = parser.parse_args(argv)
+
+    if args.command == "onset":
+        import json
+        from .box import onset_from_runs
+        try:
+            print(json.dumps(onset_from_runs(args.runs, args.within), indent=2))
+        except (OSError, ValueError) as exc:
+            print(f"onset: error: {exc}", file=sys.stderr)
+            return 2
+        return 0
 
     if args.command == "table1":
         from .table1 import table1

@@ -834,3 +834,21 @@ def observe_box(run, reference=None):
     if _big_column(run) is not None:
         out["force_ratio"] = ForceRatio().compute(run, reference=reference).as_dict()
     return clean_json(out)
+
+
+def onset_from_runs(paths, within_s=None):
+    """The rising fraction per frequency over a set of runs (one packing each)
+    and the onset threshold: a run counts as risen if its big disk reached the
+    top within ``within_s`` seconds of shaking (default: within the run)."""
+    from .reader import read_run
+
+    by_f = {}
+    for p in paths:
+        run = read_run(p)
+        h = BigDiskHeight().compute(run)
+        rose = bool(h.reached_top) and (within_s is None or h.top_crossing_s <= within_s)
+        by_f.setdefault(round(Shaker(run).f0, 6), []).append(rose)
+    freqs = sorted(by_f)
+    res = onset_threshold(freqs, [sum(by_f[f]) for f in freqs], [len(by_f[f]) for f in freqs])
+    res["within_s"] = within_s
+    return res

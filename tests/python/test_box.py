@@ -511,3 +511,21 @@ def test_native_run(native_run):
     BigDiskHeight().compute(run).plot()
     ConvectiveFlux().compute(run).plot()
     VelocityField().compute(run).plot()
+
+
+def test_onset_command_on_real_runs(tmp_path):
+    """compare onset over runs: grouping by frequency, a disk that does not
+    reach the top counts as not risen."""
+    import sys
+    if not GRANULAR.exists():
+        pytest.skip("build/granular not built")
+    out = tmp_path / "a.h5"
+    subprocess.run([str(GRANULAR), "run", str(REPO_ROOT / "scenes/box/f3.0_big.toml"), "--set", "run.duration=1",
+                    "--set", "run.settle=0.5", "--set", "particles.count=100", "--set", "box.width=24",
+                    "-o", str(out), "--threads", "1", "-q"], check=True, capture_output=True, timeout=300)
+    r = subprocess.run([sys.executable, "-m", "compare", "onset", str(out)], capture_output=True, text=True,
+                       cwd=REPO_ROOT, timeout=300)
+    assert r.returncode == 0, r.stderr
+    res = json.loads(r.stdout)
+    assert res["freqs"] == [3.0] and res["trials"] == [1] and res["successes"] == [0]
+    assert res["threshold_position"] == "above_grid"
