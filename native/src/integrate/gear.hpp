@@ -48,27 +48,21 @@ struct Gear5 {
     }
   }
 
+  // Named views of the aux columns (see start()).
+  struct Columns {
+    std::vector<V>&r2, &r3, &r4, &r5;
+    std::vector<A>&q0, &q2, &q3, &q4, &q5;
+    explicit Columns(ParticleStore<Dim>& p)
+        : r2(p.aux_v[0]), r3(p.aux_v[1]), r4(p.aux_v[2]), r5(p.aux_v[3]), q0(p.aux_a[0]), q2(p.aux_a[1]),
+          q3(p.aux_a[2]), q4(p.aux_a[3]), q5(p.aux_a[4]) {}
+  };
+
   DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next) const {
     DriftStats st;
-    auto& r2 = p.aux_v[0];
-    auto& r3 = p.aux_v[1];
-    auto& r4 = p.aux_v[2];
-    auto& r5 = p.aux_v[3];
-    auto& q0 = p.aux_a[0];
-    auto& q2 = p.aux_a[1];
-    auto& q3 = p.aux_a[2];
-    auto& q4 = p.aux_a[3];
-    auto& q5 = p.aux_a[4];
+    auto [r2, r3, r4, r5, q0, q2, q3, q4, q5] = Columns(p);
     for (std::size_t i = lo; i < hi; ++i) {
-      if constexpr (kHasMotion<Motion>) {
-        if (p.species[i] == kWallSpecies) {
-          const V old = p.x[i];
-          motion.place(p, i, t_next);
-          st.add(box, (p.x[i] - old).squaredNorm(), p.x[i], x_ref[i]);
-          continue;
-        }
-      }
+      if (place_if_wall(motion, p, i, t_next, box, x_ref[i], st)) continue;
       const V r1 = dt * p.v[i];
       const V step = r1 + r2[i] + r3[i] + r4[i] + r5[i];
       p.x[i] += step;
@@ -90,15 +84,7 @@ struct Gear5 {
 
   void second_half(ParticleStore<Dim>& p, const Box<Dim>& box, std::size_t lo, std::size_t hi) const {
     const double h2 = 0.5 * dt * dt;
-    auto& r2 = p.aux_v[0];
-    auto& r3 = p.aux_v[1];
-    auto& r4 = p.aux_v[2];
-    auto& r5 = p.aux_v[3];
-    auto& q0 = p.aux_a[0];
-    auto& q2 = p.aux_a[1];
-    auto& q3 = p.aux_a[2];
-    auto& q4 = p.aux_a[3];
-    auto& q5 = p.aux_a[4];
+    auto [r2, r3, r4, r5, q0, q2, q3, q4, q5] = Columns(p);
     for (std::size_t i = lo; i < hi; ++i) {
       if constexpr (kHasMotion<Motion>)
         if (p.species[i] == kWallSpecies) continue;

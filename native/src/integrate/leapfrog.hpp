@@ -33,14 +33,7 @@ struct Leapfrog {
     const double h = 0.5 * dt;
     DriftStats st;
     for (std::size_t i = lo; i < hi; ++i) {
-      if constexpr (kHasMotion<Motion>) {
-        if (p.species[i] == kWallSpecies) {
-          const V old = p.x[i];
-          motion.place(p, i, t_next);
-          st.add(box, (p.x[i] - old).squaredNorm(), p.x[i], x_ref[i]);
-          continue;
-        }
-      }
+      if (place_if_wall(motion, p, i, t_next, box, x_ref[i], st)) continue;
       p.v[i] += h * (p.f[i] * p.inv_m[i] + gravity);
       p.w[i] += (h * p.inv_i[i]) * p.tq[i];
       const V step = dt * p.v[i];

@@ -78,4 +78,20 @@ struct ShakerMotion {
 template <class Motion>
 inline constexpr bool kHasMotion = !std::is_same_v<Motion, NoMotion>;
 
+// For the integrators' first stage: if particle i is a wall particle, put it
+// where the motion says at t_next, record its displacement and return true.
+template <class Motion, int Dim, class Stats, class BoxT>
+inline bool place_if_wall(const Motion& motion, ParticleStore<Dim>& p, std::size_t i, double t_next, const BoxT& box,
+                          const Vec<Dim>& x_ref, Stats& st) {
+  if constexpr (kHasMotion<Motion>) {
+    if (p.species[i] == kWallSpecies) {
+      const Vec<Dim> old = p.x[i];
+      motion.place(p, i, t_next);
+      st.add(box, (p.x[i] - old).squaredNorm(), p.x[i], x_ref);
+      return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace granular
