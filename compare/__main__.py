@@ -47,6 +47,15 @@ def quicklook(path, out, slice_width=None):
     return out
 
 
+def _fail(command, run, exc):
+    """An expected failure: one line naming the file, exit status 2."""
+    msg = str(exc)
+    if run not in msg:
+        msg = f"{run}: {msg}"
+    print(f"{command}: error: {msg}", file=sys.stderr)
+    return 2
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python3 -m compare",
                                      description="Analysis of granular-frames HDF5 runs.")
@@ -110,11 +119,7 @@ def main(argv=None):
                 for path in plot_all(args.run, args.output, params):
                     print(path)
         except (OSError, ValueError) as exc:
-            msg = str(exc)
-            if args.run not in msg:
-                msg = f"{args.run}: {msg}"
-            print(f"{args.command}: error: {msg}", file=sys.stderr)
-            return 2
+            return _fail(args.command, args.run, exc)
         return 0
 
     if args.command == "quicklook":
@@ -122,11 +127,7 @@ def main(argv=None):
         try:
             written = quicklook(args.run, out, args.slice_width)
         except (OSError, ValueError) as exc:
-            msg = str(exc)
-            if args.run not in msg:
-                msg = f"{args.run}: {msg}"
-            print(f"quicklook: error: {msg}", file=sys.stderr)
-            return 2
+            return _fail("quicklook", args.run, exc)
         print(written)
     return 0
 
