@@ -1,5 +1,6 @@
 // granular: the native engine's command-line program.
 //   granular run SCENE [-o OUT.h5] [--set key=value]... [--threads N]
+//   granular init SCENE [-o INIT.h5] [--set key=value]...
 //   granular info SCENE [--set key=value]... [--json]
 //   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S]
 // SCENE is a drum (Rapaport 2002) or shaken-box (Poeschel and Herrmann 1995)
@@ -17,6 +18,7 @@
 
 #include "engine/box.hpp"
 #include "engine/drum.hpp"
+#include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
 #include "version.hpp"
 
@@ -72,6 +74,38 @@ nlohmann::json info_json(const Loaded& l) {
     d["rotation_period"] = s.rotation_period();
     d["steps_per_rotation"] = s.rotation_period() / s.dt;
     d["steps_total"] = s.steps_per(s.rotations);
+    // The linear law mapped from Rapaport's (what LAMMPS runs, and the native
+    // engine with contact.law = "linear"): docs/model_mapping.md.
+    const LinearMapping m = map_rapaport_to_linear(s);
+    nlohmann::json lin;
+    auto coeff = [](const LinearLaw<3>::Coeff& c) {
+      return nlohmann::json{{"kn", c.kn}, {"gamma_n", c.gamma_n}, {"xgamma_t", c.xgamma_t}, {"mu", c.mu}};
+    };
+    auto col = [](const Collision& c) {
+      return nlohmann::json{{"restitution", c.restitution}, {"contact_time", c.contact_time}};
+    };
+    const char* pairs[3] = {"small_small", "small_big", "big_big"};
+    const char* species[2] = {"small", "big"};
+    for (int k = 0; k < 3; ++k) {
+      const int a = k == 2 ? 1 : 0, b = k == 0 ? 0 : 1;
+      lin["pair"][pairs[k]] = coeff(m.law.pair[a * 2 + b]);
+      lin["pair"][pairs[k]]["m_eff"] = m.pair_meff[k];
+      lin["pair"][pairs[k]]["rapaport"] = col(m.pair_collision[k]);
+      lin["pair"][pairs[k]]["linear"] = col(m.pair_linear[k]);
+    }
+    for (int a = 0; a < 2; ++a) {
+      lin["wall"][species[a]] = coeff(m.law.wall[a]);
+      lin["wall"][species[a]]["m_eff"] = m.wall_meff[a];
+      lin["wall"][species[a]]["rapaport"] = col(m.wall_collision[a]);
+      lin["wall"][species[a]]["linear"] = col(m.wall_linear[a]);
+    }
+    lin["impact_speed"] = m.impact_speed;
+    lin["static_load"] = m.static_load;
+    lin["diameter_scale"] = m.diameter_scale;
+    lin["wall_inset"] = m.wall_inset;
+    lin["contact_diameter"] = s.diameter - 2.0 * m.wall_inset;
+    lin["contact_length"] = s.length - (s.capped ? 2.0 * m.wall_inset : 0.0);
+    d["linear_law"] = lin;
   } else {
     const BoxScene& s = *l.box;
     std::vector<Eigen::Vector2d> anchors;
@@ -142,6 +176,53 @@ int run_scene(const Loaded& l, const std::string& scene_path, std::string out_pa
   return 0;
 }
 
+// The initial state in the common schema (one frame at t = 0) plus each
+// particle's mass and moment of inertia (group /initial, rows in id order) and
+// the derived parameters (attribute derived_json): what another engine needs to
+// start from the same configuration (lammps_cases/, yade_cases/).
+template <class Sim>
+void write_initial(H5Output& out, const Sim& sim) {
+  out.frame(0.0, 0, sim.p);
+  std::vector<std::size_t> order(sim.p.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return sim.p.id[a] < sim.p.id[b]; });
+  out.init_series("initial", {{"id", 1}, {"mass", 1}, {"inertia", 1}});
+  for (std::size_t i : order)
+    out.series({{static_cast<double>(sim.p.id[i])}, {1.0 / sim.p.inv_m[i]}, {1.0 / sim.p.inv_i[i]}});
+}
+
+int init_scene(const Loaded& l, const std::string& scene_path, std::string out_path) {
+  if (out_path.empty()) out_path = l.name() + "_init.h5";
+  const int dim = l.drum ? 3 : 2;
+  auto emit = [&](auto& sim) {
+    H5Output out(out_path, dim, static_cast<std::int64_t>(sim.p.size()));
+    if (l.drum) {
+      common_attrs<3>(out, l, scene_path);
+      out.attr("omega", l.drum->omega);
+      out.attr("rotation_period", l.drum->rotation_period());
+      out.group_attr("frames", "species_names", {"small", "big"});
+    } else {
+      common_attrs<2>(out, l, scene_path);
+      out.attr("frequency", l.box->frequency);
+      out.attr("amplitude", l.box->amplitude);
+      out.attr("settle", l.box->settle);
+      out.attr("box_width", l.box->width);
+      out.attr("wall_radius", l.box->wall_radius);
+      out.group_attr("frames", "species_names", {"small", "big", "wall"});
+    }
+    out.attr("derived_json", info_json(l).dump());
+    write_initial(out, sim);
+  };
+  if (l.drum) {
+    DrumSim sim = make_drum(*l.drum);
+    std::visit(emit, sim);
+  } else {
+    BoxSim sim = make_box(*l.box);
+    std::visit(emit, sim);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -160,6 +241,11 @@ int main(int argc, char** argv) {
   run->add_option("--threads", threads, "OpenMP threads (default: all cores)")->check(CLI::PositiveNumber);
   bool quiet = false;
   run->add_flag("-q,--quiet", quiet, "no progress line");
+
+  auto* init = app.add_subcommand("init", "write the initial state (one frame, masses, inertia) for another engine");
+  init->add_option("scene", scene_path, "scene file (TOML)")->required();
+  init->add_option("-o,--output", out_path, "output HDF5 file (default: the scene name + _init.h5)");
+  init->add_option("--set", sets, "override a scene key: key=value (repeatable)");
 
   bool as_json = false;
   auto* info = app.add_subcommand("info", "print the resolved scene and its particle count");
@@ -194,6 +280,7 @@ int main(int argc, char** argv) {
         std::cout << l.toml << "\n# particles: " << j["derived"]["particles"] << "\n";
       return 0;
     }
+    if (*init) return init_scene(load(scene_path, sets), scene_path, out_path);
     if (*run) {
       if (threads > 0) omp_set_num_threads(threads);
       const Loaded l = load(scene_path, sets);  // all validation happens before the output is touched

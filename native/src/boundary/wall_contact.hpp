@@ -22,7 +22,7 @@ GRANULAR_INLINE void wall_contact(ParticleStore<3>& p, const Law& law, std::size
   const double di = p.d[i];
   const Eigen::Vector3d viw = p.v[i] - wall_velocity;
   const Eigen::Vector3d arm = (lever.paper + lever.pair * di / (di + d_wall)) * rp;
-  const auto res = law.wall_force(rp, di, 0.5 * (di + d_wall), viw, p.w[i], arm, p.species[i]);
+  const auto res = law.wall_force(rp, di, 0.5 * (di + d_wall), viw, p.w[i], arm, p.species[i], p.inv_m[i]);
   p.f[i] += res.f;
   p.tq[i] += res.t;
 }

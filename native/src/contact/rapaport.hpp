@@ -88,7 +88,7 @@ struct RapaportLaw {
   // viw = v_i - Omega s; lever multiplies w_i in the sliding velocity
   // (the paper writes w_i x r'_iw, i.e. lever = r'_iw).
   GRANULAR_INLINE WallResult wall_force(const V& rp, double di, double d_iw, const V& viw, const A& wi, const V& lever,
-                        int ci) const {
+                        int ci, double /*inv_mi*/ = 0.0) const {
     const double inv_r = 1.0 / rp.norm();
     const V n = rp * inv_r;
     const double vn = n.dot(viw);

@@ -7,6 +7,9 @@
 #include <cstdio>
 #include <limits>
 #include <sstream>
+#include <type_traits>
+
+#include "scene/law_mapping.hpp"
 
 namespace granular {
 
@@ -15,6 +18,25 @@ namespace {
 template <class Sim>
 void configure_common(Sim& sim, const DrumScene& s) {
   sim.p = drum_particles(s);
+  constexpr bool linear = std::is_same_v<decltype(sim.law), LinearLaw<3>>;
+  // Linear law: contact diameters 2^(1/6) d, walls moved in by 2^(1/6) d_w / 2,
+  // zero wall thickness (scene/law_mapping.hpp); masses unchanged, inertia
+  // kappa m d^2 / 2 of the contact diameter (LAMMPS: 2/5 m r^2).
+  double d_wall = s.wall_diameter, inset = 0.0;
+  if constexpr (linear) {
+    const LinearMapping map = map_rapaport_to_linear(s);
+    sim.law = map.law;
+    for (std::size_t i = 0; i < sim.p.size(); ++i) {
+      sim.p.d[i] *= map.diameter_scale;
+      const double m = 1.0 / sim.p.inv_m[i], d = sim.p.d[i];
+      sim.p.inv_i[i] = 1.0 / (0.5 * s.kappa * m * d * d);
+    }
+    d_wall = 0.0;
+    inset = map.wall_inset;
+  } else {
+    sim.law = RapaportLaw<3>::from_paper(s.gamma_n, s.gamma_s_bb, s.gamma_s_ss, s.gamma_s_bw, s.gamma_s_sw,
+                                         s.mu_max);
+  }
   const double half_d = 0.5 * s.diameter, margin = 2.0;
   sim.box.lo = Eigen::Vector3d(-half_d - margin, -0.5 * s.length, -half_d - margin);
   sim.box.hi = Eigen::Vector3d(half_d + margin, 0.5 * s.length, half_d + margin);
@@ -24,21 +46,20 @@ void configure_common(Sim& sim, const DrumScene& s) {
     sim.box.hi.y() += margin;
   }
   sim.box.finalize();
-  sim.law = RapaportLaw<3>::from_paper(s.gamma_n, s.gamma_s_bb, s.gamma_s_ss, s.gamma_s_bw, s.gamma_s_sw, s.mu_max);
   sim.integrator.dt = s.dt;
   sim.integrator.gravity = Eigen::Vector3d(0.0, 0.0, -s.gravity);  // g along -z (Sec. III)
   sim.skin = s.skin;
   CylinderWall& cyl = std::get<CylinderWall>(sim.walls);
-  cyl.diameter = s.diameter;
+  cyl.diameter = s.diameter - 2.0 * inset;
   cyl.omega = s.omega;
-  cyl.d_wall = s.wall_diameter;
+  cyl.d_wall = d_wall;
   const bool paper = s.wall_lever == "paper";
   cyl.lever = WallLever{paper ? 1.0 : 0.0, paper ? 0.0 : 1.0};
   if constexpr (std::tuple_size_v<decltype(sim.walls)> == 2) {
     EndCaps& caps = std::get<EndCaps>(sim.walls);
-    caps.length = s.length;
+    caps.length = s.length - 2.0 * inset;
     caps.omega = s.omega;
-    caps.d_wall = s.wall_diameter;
+    caps.d_wall = d_wall;
     caps.lever = cyl.lever;
   }
   sim.init();
@@ -135,8 +156,13 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress) {
 
 DrumSim make_drum(const DrumScene& s) {
   DrumSim sim;
-  if (s.capped)
+  const bool linear = s.law == "linear";
+  if (s.capped && linear)
+    sim.emplace<DrumCappedT<LinearLaw<3>>>();
+  else if (s.capped)
     sim.emplace<DrumCapped>();
+  else if (linear)
+    sim.emplace<DrumPeriodicT<LinearLaw<3>>>();
   else
     sim.emplace<DrumPeriodic>();
   std::visit([&](auto& v) { configure_common(v, s); }, sim);

@@ -9,6 +9,7 @@
 
 #include "boundary/cylinder_wall.hpp"
 #include "boundary/end_caps.hpp"
+#include "contact/linear.hpp"
 #include "contact/rapaport.hpp"
 #include "engine/simulation.hpp"
 #include "integrate/leapfrog.hpp"
@@ -17,9 +18,14 @@
 
 namespace granular {
 
-using DrumPeriodic = Simulation<3, RapaportLaw<3>, Leapfrog<3>, CylinderWall>;
-using DrumCapped = Simulation<3, RapaportLaw<3>, Leapfrog<3>, CylinderWall, EndCaps>;
-using DrumSim = std::variant<DrumPeriodic, DrumCapped>;
+template <class Law>
+using DrumPeriodicT = Simulation<3, Law, Leapfrog<3>, CylinderWall>;
+template <class Law>
+using DrumCappedT = Simulation<3, Law, Leapfrog<3>, CylinderWall, EndCaps>;
+using DrumPeriodic = DrumPeriodicT<RapaportLaw<3>>;
+using DrumCapped = DrumCappedT<RapaportLaw<3>>;
+// Rapaport's law, or LAMMPS's linear law mapped from it (scene/law_mapping.hpp).
+using DrumSim = std::variant<DrumPeriodic, DrumCapped, DrumPeriodicT<LinearLaw<3>>, DrumCappedT<LinearLaw<3>>>;
 
 DrumSim make_drum(const DrumScene& s);
 

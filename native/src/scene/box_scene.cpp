@@ -55,7 +55,7 @@ BoxScene read_box_scene(SceneFile& f) {
 
   s.gear = f.choice("integrator.kind", {"gear", "verlet"}, "gear") == "gear";
   s.dt = f.positive("integrator.dt", f.number("integrator.dt", 5e-5));
-  s.skin = f.positive("neighbor.skin", f.number("neighbor.skin", 0.2));
+  s.skin = f.positive("neighbor.skin", f.number("neighbor.skin", 0.5));
 
   s.settle = f.non_negative("run.settle", f.number("run.settle", 1.0));
   s.duration = f.non_negative("run.duration", f.number("run.duration"));

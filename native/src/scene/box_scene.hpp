@@ -34,7 +34,7 @@ struct BoxScene {
   double gravity = 981.0;
   // [integrator], [neighbor]
   bool gear = true;
-  double dt = 5e-5, skin = 0.2;
+  double dt = 5e-5, skin = 0.5;  // skin: docs/shaken_box.md (speed sweep)
   // [run]: seconds
   double settle = 1.0, duration = 60.0;
   double snapshot_every_cycles = 1.0;  // frames at the vibration's node (phase 0)

@@ -22,8 +22,9 @@ struct DrumScene {
   std::string initial_state = "mixed";  // "mixed" | "segregated_band" | "segregated_halves"
   std::uint64_t seed = 1;
   // [contact] + [friction] (Sec. III; Table I gamma_s columns)
-  std::string law = "rapaport";
+  std::string law = "rapaport";  // "rapaport" | "linear" (LAMMPS's law, mapped: scene/law_mapping.hpp)
   double gamma_n = 5.0, kappa = 0.2, mu_max = 0.5;
+  double impact_speed = 1.0;  // speed at which the linear law matches Rapaport's collisions
   double gamma_s_bb = 10, gamma_s_ss = 2, gamma_s_bw = 10, gamma_s_sw = 2;
   double gravity = 5.0;
   // [integrator], [neighbor]

@@ -1,0 +1,80 @@
+"""What the drum and box cases share: the LAMMPS instance, the data file with
+the native initial state, gathering per-atom arrays in id order."""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+
+def rank() -> int:
+    return int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK", "0")))
+
+
+def write_data(path, ini, lo, hi, type_of_species):
+    """LAMMPS data file (atom_style sphere): ids, types, diameters, densities
+    chosen so that LAMMPS's mass (4/3 pi r^3 rho, also in 2D) is the native mass."""
+    n = len(ini.id)
+    d = ini.diameter
+    rho = ini.mass / (math.pi / 6.0 * d ** 3)
+    ntypes = max(type_of_species.values())
+    pos = np.zeros((n, 3))
+    pos[:, :ini.position.shape[1]] = ini.position
+    vel = np.zeros((n, 3))
+    vel[:, :ini.velocity.shape[1]] = ini.velocity
+    w = np.zeros((n, 3))
+    if ini.angular_velocity.shape[1] == 1:
+        w[:, 2] = ini.angular_velocity[:, 0]
+    else:
+        w[:] = ini.angular_velocity
+    with open(path, "w") as f:
+        f.write("granular initial state (granular init)\n\n")
+        f.write(f"{n} atoms\n{ntypes} atom types\n\n")
+        for k, ax in enumerate("xyz"):
+            f.write(f"{lo[k]!r} {hi[k]!r} {ax}lo {ax}hi\n")
+        f.write("\nAtoms # sphere\n\n")
+        for i in range(n):
+            f.write(f"{ini.id[i] + 1} {type_of_species[int(ini.species[i])]} {d[i]!r} {rho[i]!r} "
+                    f"{pos[i, 0]!r} {pos[i, 1]!r} {pos[i, 2]!r}\n")
+        f.write("\nVelocities\n\n")
+        for i in range(n):
+            f.write(f"{ini.id[i] + 1} {vel[i, 0]!r} {vel[i, 1]!r} {vel[i, 2]!r} {w[i, 0]!r} {w[i, 1]!r} {w[i, 2]!r}\n")
+
+
+def gather(lmp, name, width):
+    """Per-atom array in atom-id order (ids 1..N), as float64 (N, width)."""
+    import ctypes
+    n = lmp.get_natoms()
+    data = lmp.gather_atoms(name, 1, width)
+    arr = np.ctypeslib.as_array(ctypes.cast(data, ctypes.POINTER(ctypes.c_double)), shape=(n * width,))
+    return arr.reshape(n, width).copy()
+
+
+def check_masses(lmp, ini):
+    m = gather(lmp, "rmass", 1).ravel()
+    want = ini.mass[np.argsort(ini.id)]
+    err = np.max(np.abs(m / want - 1.0))
+    if err > 1e-12:
+        raise RuntimeError(f"LAMMPS masses differ from the native ones by {err:.2e} (relative)")
+
+
+def pair_coeff(c) -> str:
+    """The native linear law's coefficients (contact/linear.hpp) as LAMMPS keywords."""
+    return (f"hooke {c['kn']!r} {c['gamma_n']!r} tangential linear_nohistory {c['xgamma_t']!r} {c['mu']!r} "
+            f"damping mass_velocity")
+
+
+def output_steps(total, every_steps_fn, every):
+    """Steps k at which output falls due: lround(j * every) converted by the
+    scene's rule, as the native engine schedules them."""
+    steps, j = set(), 0
+    while True:
+        s = every_steps_fn(j * every)
+        if s > total:
+            break
+        steps.add(s)
+        j += 1
+    steps.add(total)
+    return steps

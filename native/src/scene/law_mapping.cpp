@@ -1,0 +1,111 @@
+#include "scene/law_mapping.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace granular {
+
+Collision rapaport_collision(double dij, double meff, double gamma_n, double v) {
+  const double rc = RapaportLaw<3>::kCutFactor * dij;
+  // d/dt (r, u) = (u, (f_v(r) - gamma_n u) / m_eff), classical RK4 with a step
+  // far below the contact time; the exit is located by cubic Hermite
+  // interpolation between the last two steps.
+  auto acc = [&](double r, double u) { return RapaportLaw<3>::normal(1.0 / r, dij, u, gamma_n) / meff; };
+  const double h = 2e-5 * dij / std::max(v, 0.05);
+  double r = rc, u = -v, t = 0.0;
+  for (long k = 0; k < 100000000L; ++k) {
+    const double k1r = u, k1u = acc(r, u);
+    const double k2r = u + 0.5 * h * k1u, k2u = acc(r + 0.5 * h * k1r, u + 0.5 * h * k1u);
+    const double k3r = u + 0.5 * h * k2u, k3u = acc(r + 0.5 * h * k2r, u + 0.5 * h * k2u);
+    const double k4r = u + h * k3u, k4u = acc(r + h * k3r, u + h * k3u);
+    const double rn = r + h / 6 * (k1r + 2 * k2r + 2 * k3r + k4r);
+    const double un = u + h / 6 * (k1u + 2 * k2u + 2 * k3u + k4u);
+    if (k > 0 && rn >= rc) {
+      // Hermite cubic through (0, r, u h) and (1, rn, un h); bisect for r(s) = rc.
+      const double a0 = r, a1 = u * h;
+      const double a2 = 3 * (rn - r) - (2 * u + un) * h, a3 = 2 * (r - rn) + (u + un) * h;
+      double lo = 0.0, hi = 1.0;
+      for (int it = 0; it < 60; ++it) {
+        const double s = 0.5 * (lo + hi);
+        (a0 + s * (a1 + s * (a2 + s * a3)) < rc ? lo : hi) = s;
+      }
+      const double s = 0.5 * (lo + hi);
+      const double us = (a1 + s * (2 * a2 + 3 * s * a3)) / h;
+      return {us / v, t + s * h};
+    }
+    r = rn;
+    u = un;
+    t += h;
+  }
+  throw std::runtime_error("rapaport_collision: the particles never separated");
+}
+
+Collision linear_collision(double kn, double gamma_n) {
+  const double beta = 0.5 * gamma_n;
+  const double w2 = kn - beta * beta;
+  if (w2 <= 0.0) return {0.0, INFINITY};  // overdamped: no rebound
+  const double tc = M_PI / std::sqrt(w2);
+  return {std::exp(-beta * tc), tc};
+}
+
+double rapaport_overlap(double dij, double force) {
+  const double rc = RapaportLaw<3>::kCutFactor * dij;
+  double lo = 0.5 * dij, hi = rc;  // f_v decreases from lo to 0 at hi
+  for (int it = 0; it < 200; ++it) {
+    const double r = 0.5 * (lo + hi);
+    (RapaportLaw<3>::normal(1.0 / r, dij, 0.0, 0.0) > force ? lo : hi) = r;
+  }
+  return rc - 0.5 * (lo + hi);
+}
+
+LinearNormal linear_matching(const Collision& c) {
+  const double w = M_PI / c.contact_time, beta = -std::log(c.restitution) / c.contact_time;
+  return {w * w + beta * beta, 2.0 * beta};
+}
+
+LinearMapping map_rapaport_to_linear(const DrumScene& s) {
+  LinearMapping m;
+  m.impact_speed = s.impact_speed;
+  m.diameter_scale = RapaportLaw<3>::kCutFactor;
+  m.wall_inset = 0.5 * RapaportLaw<3>::kCutFactor * s.wall_diameter;
+  const RapaportLaw<3> rap =
+      RapaportLaw<3>::from_paper(s.gamma_n, s.gamma_s_bb, s.gamma_s_ss, s.gamma_s_bw, s.gamma_s_sw, s.mu_max);
+  const double d[2] = {s.small_diameter - 0.5 * s.diameter_spread, s.big_diameter - 0.5 * s.diameter_spread};
+  const double mass[2] = {d[0] * d[0] * d[0], d[1] * d[1] * d[1]};
+  // F*: the weight of a column of mean grains D/2 high.
+  const double dbar = 0.5 * (d[0] + d[1]), mbar = 0.5 * (mass[0] + mass[1]);
+  m.static_load = s.gravity * mbar * (0.5 * s.diameter) / dbar;
+  auto fill = [&](LinearLaw<3>::Coeff& c, double dij, const Collision& col, double meff,
+                  const RapaportLaw<3>::Friction& fr) {
+    // k_n: the same overlap under F*; g_n: the same restitution e. For the
+    // linear law e = exp(-beta pi / omega), omega^2 = k_n/m_eff - beta^2,
+    // beta = g_n/2, so beta = |ln e| sqrt(k_n/m_eff) / sqrt(pi^2 + ln^2 e).
+    c.kn = m.static_load / rapaport_overlap(dij, m.static_load);
+    const double le = std::log(col.restitution), k1 = c.kn / meff;
+    c.gamma_n = 2.0 * std::abs(le) * std::sqrt(k1) / std::sqrt(M_PI * M_PI + le * le);
+    // Rapaport's sliding force gamma_s |v_s| is not mass weighted; LAMMPS's is
+    // x_t g_n m_eff |v_t|, so x_t = gamma_s / (g_n m_eff) at the mean masses.
+    c.xgamma_t = c.gamma_n > 0 ? fr.gamma_s / (c.gamma_n * meff) : 0.0;
+    c.mu = fr.mu;
+    return linear_collision(k1, c.gamma_n);
+  };
+  for (int a = 0; a < 2; ++a)
+    for (int b = a; b < 2; ++b) {
+      const int k = a + b;  // 0 ss, 1 sb, 2 bb
+      const double meff = mass[a] * mass[b] / (mass[a] + mass[b]);
+      m.pair_meff[k] = meff;
+      const double dij = 0.5 * (d[a] + d[b]);
+      m.pair_collision[k] = rapaport_collision(dij, meff, s.gamma_n, s.impact_speed);
+      m.pair_linear[k] = fill(m.law.pair[a * 2 + b], dij, m.pair_collision[k], meff, rap.pair[a * 2 + b]);
+      m.law.pair[b * 2 + a] = m.law.pair[a * 2 + b];
+    }
+  for (int a = 0; a < 2; ++a) {
+    m.wall_meff[a] = mass[a];
+    const double diw = 0.5 * (d[a] + s.wall_diameter);
+    m.wall_collision[a] = rapaport_collision(diw, mass[a], s.gamma_n, s.impact_speed);
+    m.wall_linear[a] = fill(m.law.wall[a], diw, m.wall_collision[a], mass[a], rap.wall[a]);
+  }
+  return m;
+}
+
+}  // namespace granular

@@ -1,0 +1,60 @@
+// From Rapaport's contact law to the nearest linear spring-dashpot
+// (contact/linear.hpp, the law LAMMPS runs). docs/model_mapping.md derives it:
+// for each type pair (and each species against the wall) the linear law gets
+// the same overlap as Rapaport's law under the bed's static load (the weight of
+// a column of grains D/2 high, F* = g m (D/2)/d at the mean grain), the same
+// two-body restitution coefficient at a chosen impact speed, the same sliding
+// friction (gamma_s) and the same Coulomb cap (mu). Matching the contact time
+// of a slow collision instead gives springs so soft that the bed's weight
+// pushes grains through the wall (docs/model_mapping.md).
+// Particles keep their masses; their contact diameter becomes
+// 2^(1/6) d (where Rapaport's force vanishes), and the walls move in by
+// 2^(1/6) d_w / 2 so that contacts begin where they begin in Rapaport's model.
+#pragma once
+#include "contact/linear.hpp"
+#include "contact/rapaport.hpp"
+#include "scene/drum_scene.hpp"
+
+namespace granular {
+
+struct Collision {
+  double restitution = 0.0;   // separation speed / approach speed
+  double contact_time = 0.0;  // time between first and last contact
+};
+
+// Head-on collision of two particles (or a particle and the wall) under
+// Rapaport's normal force, Eqs. (1) and (2): the relative coordinate r obeys
+// m_eff r'' = f_v(r) - gamma_n r', entering at r = 2^(1/6) d_ij with speed v.
+Collision rapaport_collision(double dij, double meff, double gamma_n, double v);
+
+// The linear law's collision (no clipping): omega^2 = k_n/m_eff - beta^2,
+// beta = g_n/2, t_c = pi/omega, e = exp(-beta t_c).
+Collision linear_collision(double kn, double gamma_n);  // kn per unit m_eff
+
+// Overlap 2^(1/6) d - r at which Rapaport's elastic force f_v (Eq. (1)) equals F.
+double rapaport_overlap(double dij, double force);
+
+// k_n (per unit effective mass) and g_n giving restitution e and contact time t_c.
+struct LinearNormal {
+  double kn_per_mass = 0.0;  // k_n / m_eff
+  double gamma_n = 0.0;      // g_n
+};
+LinearNormal linear_matching(const Collision& c);
+
+struct LinearMapping {
+  LinearLaw<3> law;
+  double diameter_scale = 0.0;  // 2^(1/6): contact diameter / Rapaport diameter
+  double wall_inset = 0.0;      // 2^(1/6) d_w / 2: how far the walls move in
+  double impact_speed = 0.0;
+  double static_load = 0.0;  // F*
+  // The linear law's own collisions at these coefficients: [ss, sb, bb], wall [s, b].
+  Collision pair_linear[3], wall_linear[2];
+  // The pairs' Rapaport collisions that were matched: [ss, sb, bb], wall [s, b].
+  Collision pair_collision[3], wall_collision[2];
+  double pair_meff[3] = {0, 0, 0}, wall_meff[2] = {0, 0};
+};
+
+// Uses each species' mean diameter d - spread/2 and mass d^3.
+LinearMapping map_rapaport_to_linear(const DrumScene& s);
+
+}  // namespace granular

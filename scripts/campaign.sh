@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Runs the long native runs behind docs/table1.md and docs/shaken_box.md.
+#   scripts/campaign.sh JOBFILE [LANES]
+# JOBFILE holds one job per line: OUTPUT.h5 SCENE [granular run options...]
+# A job whose OUTPUT.h5.done exists is skipped, so the campaign can be
+# restarted; each job writes OUTPUT.log beside its output.
+set -euo pipefail
+here="$(cd "$(dirname "$0")/.." && pwd)"
+jobs="$1"; lanes="${2:-2}"
+run_one() {
+  out="$1"; shift; scene="$1"; shift
+  [ -e "$out.done" ] && exit 0
+  mkdir -p "$(dirname "$out")"
+  if nice -n 10 "$here/build/granular" run "$scene" -o "$out" --threads 1 -q "$@" >"${out%.h5}.log" 2>&1; then
+    touch "$out.done"
+  else
+    echo "failed: $out (see ${out%.h5}.log)" >&2
+  fi
+}
+export -f run_one; export here
+grep -v '^\s*#' "$jobs" | grep -v '^\s*$' | xargs -P "$lanes" -L 1 bash -c 'run_one "$@"' _
