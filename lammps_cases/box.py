@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import math
 import time as wallclock
+from pathlib import Path
 
 import numpy as np
 
 from compare.schema_writer import SchemaWriter
 
-from .common import check_masses, gather, rank, write_data
+from .common import check_masses, finish, gather, rank, write_data
 from .scene import SceneRefused
 
 TYPE = {0: 1, 1: 2, 2: 3}  # grain, big disk, wall particle
@@ -46,7 +47,6 @@ def run(ini, out_path, version, nprocs=1, quiet=False):
     lo = [x[:, 0].min() - pad, x[:, 1].min() - pad, -0.5]
     hi = [x[:, 0].max() + pad, x[:, 1].max() + 100.0, 0.5]
 
-    from pathlib import Path
     work = Path(str(out_path) + ".lammps")
     work.mkdir(exist_ok=True)
     data = work / "data.lmp"
@@ -146,12 +146,4 @@ def run(ini, out_path, version, nprocs=1, quiet=False):
             el = wallclock.perf_counter() - t0
             print(f"\r  t = {t:.2f} / {total * dt:.2f} s  {done * n / max(el, 1e-9):.3g} atom-steps/s", end="",
                   flush=True)
-    elapsed = wallclock.perf_counter() - t0
-    lmp.close()
-    if out is not None:
-        out.h5.attrs["wall_seconds"] = elapsed
-        out.h5.attrs["atom_steps_per_second"] = total * n / elapsed if elapsed > 0 else 0.0
-        out.close()
-        if not quiet:
-            print(f"\ndone: {total} steps in {elapsed:.1f} s, {total * n / elapsed:.3g} atom-steps/s")
-    return total * n / elapsed if elapsed > 0 else 0.0
+    return finish(lmp, out, t0, total, n, quiet)

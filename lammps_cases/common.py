@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 
 import numpy as np
 
@@ -66,15 +67,15 @@ def pair_coeff(c) -> str:
             f"damping mass_velocity")
 
 
-def output_steps(total, every_steps_fn, every):
-    """Steps k at which output falls due: lround(j * every) converted by the
-    scene's rule, as the native engine schedules them."""
-    steps, j = set(), 0
-    while True:
-        s = every_steps_fn(j * every)
-        if s > total:
-            break
-        steps.add(s)
-        j += 1
-    steps.add(total)
-    return steps
+def finish(lmp, out, t0, total, n, quiet):
+    """Close LAMMPS and the output, recording the speed; returns atom-steps/s."""
+    elapsed = time.perf_counter() - t0
+    lmp.close()
+    rate = total * n / elapsed if elapsed > 0 else 0.0
+    if out is not None:
+        out.h5.attrs["wall_seconds"] = elapsed
+        out.h5.attrs["atom_steps_per_second"] = rate
+        out.close()
+        if not quiet:
+            print(f"\ndone: {total} steps in {elapsed:.1f} s, {rate:.3g} atom-steps/s")
+    return rate

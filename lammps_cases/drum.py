@@ -14,7 +14,7 @@ import numpy as np
 
 from compare.schema_writer import SchemaWriter, axial_small_fraction
 
-from .common import check_masses, gather, pair_coeff, rank, write_data
+from .common import check_masses, finish, gather, pair_coeff, rank, write_data
 from .scene import SceneRefused
 
 TYPE = {0: 1, 1: 2}  # species small, big -> LAMMPS types
@@ -149,12 +149,4 @@ def run(ini, out_path, version, nprocs=1, quiet=False):
             el = wallclock.perf_counter() - t0
             print(f"\r  rotation {done * dt / period:.2f} / {total * dt / period:.2f}  "
                   f"{done * n / max(el, 1e-9):.3g} atom-steps/s", end="", flush=True)
-    elapsed = wallclock.perf_counter() - t0
-    lmp.close()
-    if out is not None:
-        out.h5.attrs["wall_seconds"] = elapsed
-        out.h5.attrs["atom_steps_per_second"] = total * n / elapsed if elapsed > 0 else 0.0
-        out.close()
-        if not quiet:
-            print(f"\ndone: {total} steps in {elapsed:.1f} s, {total * n / elapsed:.3g} atom-steps/s")
-    return total * n / elapsed if elapsed > 0 else 0.0
+    return finish(lmp, out, t0, total, n, quiet)
