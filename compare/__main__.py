@@ -6,6 +6,8 @@
     python3 -m compare table1 RUN_DIR -o docs/table1.md  the Table I reproduction
     python3 -m compare onset RUN.h5... [--within S]     shaken box: onset frequency over packings
     python3 -m compare bench [-o DIR] [--rounds N]      native against LAMMPS, interleaved, with ratios
+    python3 -m compare box-report --big RUN... --nobig RUN... [--ramp RUN...] [--height RUN...]
+                       [--velocity RUN...] -o DIR      the shaken box's figures over many runs
 
 
 Expected failures (missing file, wrong schema, not a drum) print one line to
@@ -89,7 +91,28 @@ def main(argv=None):
     be.add_argument("--rotations", type=float, default=1.0, help="drum rotations timed per case")
     be.add_argument("--seconds", type=float, default=1.0, help="box seconds timed per case")
     be.add_argument("--only", action="append", default=[], help="only cases whose key contains this (repeatable)")
+    br = sub.add_parser("box-report", help="shaken box: Fig. 1, 3, 4, force ratio, ramp onset over many runs")
+    br.add_argument("--big", nargs="*", default=[], help="runs with the big disk (Fig. 3, force ratio)")
+    br.add_argument("--nobig", nargs="*", default=[], help="runs without the big disk (Fig. 3, force ratio)")
+    br.add_argument("--ramp", nargs="*", default=[], help="frequency-ramp runs (convection onset, hysteresis)")
+    br.add_argument("--height", nargs="*", default=[], help="runs whose big-disk height is drawn (Fig. 4)")
+    br.add_argument("--velocity", nargs="*", default=[], help="runs whose drift field is drawn (Fig. 1)")
+    br.add_argument("--level", type=float, default=3.0,
+                    help="ramp: depth-averaged Phi (particles/cycle) above which convection counts as on")
+    br.add_argument("--window", type=int, default=10, help="ramp: cycles per window")
+    br.add_argument("-o", "--output", required=True, help="directory for the PNGs and box_report.json")
     args = parser.parse_args(argv)
+
+    if args.command == "box-report":
+        from .box_report import box_report, summary_markdown
+        try:
+            res = box_report(args.big, args.nobig, args.ramp, args.height, args.velocity, args.output,
+                             level=args.level, window_cycles=args.window)
+        except (OSError, ValueError) as exc:
+            print(f"box-report: error: {exc}", file=sys.stderr)
+            return 2
+        print(summary_markdown(res))
+        return 0
 
     if args.command == "bench":
         from .bench import main as bench_main

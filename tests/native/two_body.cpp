@@ -2,8 +2,10 @@
 // engine, trajectory printed as JSON. tests/python/test_lammps_agreement.py
 // runs the same set-up in LAMMPS and compares.
 //   two_body < setup.json > trajectory.json
-// setup: {"law": "linear" | "hooke2d", "dt", "steps", "gravity": [..],
+// setup: {"law": "linear" | "hooke2d" | "viscel" | "viscel2d", "dt", "steps", "gravity": [..],
 //         "coeff": {"pair": [[kn, gn, xt, mu] x 4 (ss, sb, bs, bb)], "wall": [[...] x 2]},
+//         "viscel": {"materials": [[kn, cn_per_mass, cs_per_mass] x up to 3],
+//                    "wall": [[kn, cn, cs] x up to 3]}  (YADE's law, contact/viscel.hpp),
 //         "hooke": {"kn", "gamma_n", "gamma_t", "mu"},
 //         "cylinder": {"diameter", "omega"} (3D only, optional),
 //         "particles": [{"x", "v", "w", "d", "m", "I", "species"}]}
@@ -13,6 +15,7 @@
 #include "boundary/cylinder_wall.hpp"
 #include "contact/linear.hpp"
 #include "contact/poeschel_herrmann.hpp"
+#include "contact/viscel.hpp"
 #include "engine/simulation.hpp"
 #include "integrate/leapfrog.hpp"
 
@@ -61,10 +64,32 @@ json trajectory(Sim& sim, const json& in) {
 
 }  // namespace
 
+template <class Law>
+void viscel_coefficients(Law& law, const json& in) {
+  const auto& mats = in["viscel"]["materials"];
+  for (std::size_t k = 0; k < mats.size(); ++k) law.mat[k] = {mats[k][0], mats[k][1], mats[k][2]};
+  if (in["viscel"].contains("wall")) {
+    const auto& w = in["viscel"]["wall"];
+    for (std::size_t k = 0; k < w.size(); ++k) law.wall[k] = {w[k][0], w[k][1], w[k][2]};
+  }
+}
+
 int main() {
   const json in = json::parse(std::cin);
   json out;
-  if (in["law"] == "linear") {
+  if (in["law"] == "viscel") {
+    Simulation<3, ViscElLaw<3>, Leapfrog<3>, CylinderWall> sim;
+    viscel_coefficients(sim.law, in);
+    auto& cyl = std::get<CylinderWall>(sim.walls);
+    cyl.diameter = in.contains("cylinder") ? in["cylinder"]["diameter"].get<double>() : 1e6;
+    cyl.omega = in.contains("cylinder") ? in["cylinder"]["omega"].get<double>() : 0.0;
+    cyl.d_wall = 0.0;
+    out = trajectory(sim, in);
+  } else if (in["law"] == "viscel2d") {
+    Simulation<2, ViscElLaw<2>, Leapfrog<2>> sim;
+    viscel_coefficients(sim.law, in);
+    out = trajectory(sim, in);
+  } else if (in["law"] == "linear") {
     Simulation<3, LinearLaw<3>, Leapfrog<3>, CylinderWall> sim;
     for (int k = 0; k < 4; ++k) {
       const auto& c = in["coeff"]["pair"][k];

@@ -106,6 +106,19 @@ nlohmann::json info_json(const Loaded& l) {
     lin["contact_diameter"] = s.diameter - 2.0 * m.wall_inset;
     lin["contact_length"] = s.length - (s.capped ? 2.0 * m.wall_inset : 0.0);
     d["linear_law"] = lin;
+    const ViscElMapping v = map_linear_to_viscel(s, m);
+    nlohmann::json ve;
+    for (int a = 0; a < 2; ++a) {
+      const auto& mt = v.law.mat[a];
+      ve["materials"][species[a]] = {{"kn", mt.kn}, {"cn_per_mass", mt.cn_per_mass}, {"cs_per_mass", mt.cs_per_mass}};
+      const auto& w = v.law.wall[a];
+      ve["wall_materials"][species[a]] = {{"kn", w.kn}, {"cn", w.cn}, {"cs", w.cs}};
+      ve["mean_mass"][species[a]] = v.mean_mass[a];
+    }
+    ve["infeasible"] = v.infeasible;
+    ve["rule"] = "YADE ViscElMat per particle: kn, cn = cn_per_mass m_i, cs = cs_per_mass m_i; walls absolute; "
+                 "pair value 1/(1/a + 1/b), 0 = absent (contact/viscel.hpp)";
+    d["viscel_law"] = ve;
   } else {
     const BoxScene& s = *l.box;
     std::vector<Eigen::Vector2d> anchors;

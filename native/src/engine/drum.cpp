@@ -18,14 +18,18 @@ namespace {
 template <class Sim>
 void configure_common(Sim& sim, const DrumScene& s) {
   sim.p = drum_particles(s);
-  constexpr bool linear = std::is_same_v<decltype(sim.law), LinearLaw<3>>;
+  constexpr bool viscel = std::is_same_v<decltype(sim.law), ViscElLaw<3>>;
+  constexpr bool linear = std::is_same_v<decltype(sim.law), LinearLaw<3>> || viscel;
   // Linear law: contact diameters 2^(1/6) d, walls moved in by 2^(1/6) d_w / 2,
   // zero wall thickness (scene/law_mapping.hpp); masses unchanged, inertia
   // kappa m d^2 / 2 of the contact diameter (LAMMPS: 2/5 m r^2).
   double d_wall = s.wall_diameter, inset = 0.0;
   if constexpr (linear) {
     const LinearMapping map = map_rapaport_to_linear(s);
-    sim.law = map.law;
+    if constexpr (viscel)
+      sim.law = map_linear_to_viscel(s, map).law;  // the same geometry, YADE's law
+    else
+      sim.law = map.law;
     for (std::size_t i = 0; i < sim.p.size(); ++i) {
       sim.p.d[i] *= map.diameter_scale;
       const double m = 1.0 / sim.p.inv_m[i], d = sim.p.d[i];
@@ -157,7 +161,11 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress) {
 DrumSim make_drum(const DrumScene& s) {
   DrumSim sim;
   const bool linear = s.law == "linear";
-  if (s.capped && linear)
+  if (s.law == "viscel" && s.capped)
+    sim.emplace<DrumCappedT<ViscElLaw<3>>>();
+  else if (s.law == "viscel")
+    sim.emplace<DrumPeriodicT<ViscElLaw<3>>>();
+  else if (s.capped && linear)
     sim.emplace<DrumCappedT<LinearLaw<3>>>();
   else if (s.capped)
     sim.emplace<DrumCapped>();

@@ -11,6 +11,7 @@
 #include "boundary/end_caps.hpp"
 #include "contact/linear.hpp"
 #include "contact/rapaport.hpp"
+#include "contact/viscel.hpp"
 #include "engine/simulation.hpp"
 #include "integrate/leapfrog.hpp"
 #include "io/h5_output.hpp"
@@ -24,8 +25,10 @@ template <class Law>
 using DrumCappedT = Simulation<3, Law, Leapfrog<3>, CylinderWall, EndCaps>;
 using DrumPeriodic = DrumPeriodicT<RapaportLaw<3>>;
 using DrumCapped = DrumCappedT<RapaportLaw<3>>;
-// Rapaport's law, or LAMMPS's linear law mapped from it (scene/law_mapping.hpp).
-using DrumSim = std::variant<DrumPeriodic, DrumCapped, DrumPeriodicT<LinearLaw<3>>, DrumCappedT<LinearLaw<3>>>;
+// Rapaport's law, LAMMPS's linear law mapped from it, or YADE's viscoelastic
+// law mapped from that (scene/law_mapping.hpp).
+using DrumSim = std::variant<DrumPeriodic, DrumCapped, DrumPeriodicT<LinearLaw<3>>, DrumCappedT<LinearLaw<3>>,
+                             DrumPeriodicT<ViscElLaw<3>>, DrumCappedT<ViscElLaw<3>>>;
 
 DrumSim make_drum(const DrumScene& s);
 

@@ -38,7 +38,7 @@ DrumScene read_drum_scene(SceneFile& f) {
   if (seed < 0) f.fail("particles.seed", "must be >= 0");
   s.seed = static_cast<std::uint64_t>(seed);
 
-  s.law = f.choice("contact.law", {"rapaport", "linear"}, "rapaport");
+  s.law = f.choice("contact.law", {"rapaport", "linear", "viscel"}, "rapaport");
   s.impact_speed = f.positive("contact.impact_speed", f.number("contact.impact_speed", 1.0));
   s.gamma_n = f.non_negative("contact.gamma_n", f.number("contact.gamma_n", 5.0));
   s.kappa = f.positive("contact.kappa", f.number("contact.kappa", 0.2));

@@ -108,4 +108,36 @@ LinearMapping map_rapaport_to_linear(const DrumScene& s) {
   return m;
 }
 
+ViscElMapping map_linear_to_viscel(const DrumScene& s, const LinearMapping& lin) {
+  ViscElMapping v;
+  const double d[2] = {s.small_diameter - 0.5 * s.diameter_spread, s.big_diameter - 0.5 * s.diameter_spread};
+  const char* name[2] = {"small", "big"};
+  for (int a = 0; a < 2; ++a) {
+    v.mean_mass[a] = d[a] * d[a] * d[a];
+    const auto& c = lin.law.pair[a * 2 + a];
+    // mix(x m, x m) = x m / 2 = x m_eff for equal masses: the same-species pair exactly
+    v.law.mat[a] = {2.0 * c.kn, c.gamma_n, c.xgamma_t * c.gamma_n};
+  }
+  for (int a = 0; a < 2; ++a) {
+    const auto& mat = v.law.mat[a];
+    const auto& w = lin.law.wall[a];
+    const double m = v.mean_mass[a];
+    // fix wall/gran: m_eff = m_i, so the wanted wall values are absolute at the mean mass
+    const double want[3] = {w.kn, w.gamma_n * m, w.xgamma_t * w.gamma_n * m};
+    const double have[3] = {mat.kn, mat.cn_per_mass * m, mat.cs_per_mass * m};
+    const char* key[3] = {"kn", "cn", "cs"};
+    double got[3];
+    for (int k = 0; k < 3; ++k) {
+      if (want[k] > 0.0 && want[k] < have[k]) {
+        got[k] = 1.0 / (1.0 / want[k] - 1.0 / have[k]);
+      } else {
+        got[k] = 0.0;
+        if (want[k] != have[k]) v.infeasible.push_back(std::string("wall.") + name[a] + "." + key[k]);
+      }
+    }
+    v.law.wall[a] = {got[0], got[1], got[2]};
+  }
+  return v;
+}
+
 }  // namespace granular

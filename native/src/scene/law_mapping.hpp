@@ -11,7 +11,10 @@
 // 2^(1/6) d (where Rapaport's force vanishes), and the walls move in by
 // 2^(1/6) d_w / 2 so that contacts begin where they begin in Rapaport's model.
 #pragma once
+#include <string>
+#include <vector>
 #include "contact/linear.hpp"
+#include "contact/viscel.hpp"
 #include "contact/rapaport.hpp"
 #include "scene/drum_scene.hpp"
 
@@ -56,5 +59,20 @@ struct LinearMapping {
 
 // Uses each species' mean diameter d - spread/2 and mass d^3.
 LinearMapping map_rapaport_to_linear(const DrumScene& s);
+
+// YADE's viscoelastic law (contact/viscel.hpp) as near to the linear law as
+// YADE's mixing rule allows (docs/model_mapping.md, "YADE"). Per species s
+// (mean mass m_s): kn = 2 k_n(ss), cn = g_n(ss) per unit mass, cs = x_t g_n(ss)
+// per unit mass, which reproduces the same-species pairs exactly; the
+// small-big pair gets what mixing gives. The wall material W of species s
+// solves mix(particle value, W) = wanted value at m_s, which needs
+// wanted < particle value; otherwise W = 0 (absent: the pair gets the
+// particle's value) and the key is listed in `infeasible`.
+struct ViscElMapping {
+  ViscElLaw<3> law;
+  double mean_mass[2] = {0, 0};
+  std::vector<std::string> infeasible;
+};
+ViscElMapping map_linear_to_viscel(const DrumScene& s, const LinearMapping& lin);
 
 }  // namespace granular
