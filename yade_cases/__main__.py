@@ -1,0 +1,113 @@
+"""/usr/bin/python3 -m yade_cases run SCENE -o OUT.h5 [--set key=value]... [--threads N] [--force] [-q]
+
+Runs a scene file from scenes/ in YADE 2023.02a and writes the common HDF5
+schema. The native engine resolves the scene (`granular init`, as for
+lammps_cases); the initial state and the scene go to a work directory
+OUT.h5.yade/, and `yade -n -x -jN yade_cases/{drum,box}_case.py WORKDIR OUT.h5`
+runs the case. Exit status: YADE's, or 2 when the scene is refused (before
+anything runs) or the output exists (without --force)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from lammps_cases.scene import ROOT, SceneRefused, load_initial
+
+from .common import write_workdir
+
+HERE = Path(__file__).resolve().parent
+
+
+def refuse_unrepresentable(ini) -> None:
+    """Raises SceneRefused for what YADE's cases cannot represent."""
+    s = ini.scene
+    if ini.kind == "drum":
+        kind = s.get("integrator", {}).get("kind", "leapfrog")
+        if kind != "leapfrog":
+            raise SceneRefused(f"integrator.kind = {kind!r}: YADE runs its leapfrog (NewtonIntegrator) only")
+        if s.get("contact", {}).get("law", "linear") != "linear":
+            raise SceneRefused("contact.law: YADE runs the linear law (mapped from Rapaport's) only")
+    elif ini.kind == "shaken_box":
+        c = s.get("contact", {})
+        if c.get("damping", "normal") != "normal":
+            raise SceneRefused("contact.damping = \"literal\": YADE's ViscElPhys damps the normal relative "
+                               "velocity only")
+        if c.get("law", "poeschel_herrmann") != "poeschel_herrmann":
+            raise SceneRefused(f"contact.law = {c.get('law')!r}: not set up in the YADE box case")
+        kind = s.get("integrator", {}).get("kind", "gear")
+        if kind not in ("gear", "verlet"):
+            raise SceneRefused(f"integrator.kind = {kind!r}: unknown")
+    else:
+        raise SceneRefused(f"scene.kind = {ini.kind!r}: no YADE case")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python3 -m yade_cases", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a scene in YADE")
+    r.add_argument("scene")
+    r.add_argument("-o", "--output", required=True)
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    r.add_argument("--threads", type=int, default=1, help="YADE's OpenMP threads (yade -jN); 1 is repeatable")
+    r.add_argument("--segments", type=int, default=None,
+                   help="drum: segments around the circumference (default: the fewest, in multiples of 8, "
+                        "with radius error <= 0.01)")
+    r.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    r.add_argument("-q", "--quiet", action="store_true")
+    args = ap.parse_args(argv)
+
+    out = Path(args.output)
+    if out.exists() and not args.force:
+        print(f"yade_cases: error: {out} exists (use --force to overwrite)", file=sys.stderr)
+        return 2
+    yade = shutil.which("yade")
+    if yade is None:
+        print("yade_cases: error: `yade` is not on PATH (apt-get install yade; scripts/setup.sh)", file=sys.stderr)
+        return 2
+    try:
+        drum = _is_drum(args.scene)
+        ini = load_initial(args.scene, args.set, extra_sets=["contact.law=linear"] if drum else [])
+        refuse_unrepresentable(ini)
+    except SceneRefused as exc:
+        print(f"yade_cases: error: {args.scene}: {exc}", file=sys.stderr)
+        return 2
+
+    out = out.resolve()  # yade runs from the repository root
+    work = Path(str(out) + ".yade")
+    options = {"quiet": args.quiet, "threads": args.threads, "segments": args.segments,
+               "scene_path": str(args.scene), "sets": args.set}
+    write_workdir(work, ini, options)
+    script = HERE / ("drum_case.py" if ini.kind == "drum" else "box_case.py")
+    if out.exists():
+        out.unlink()
+    cmd = [yade, "-n", "-x", f"-j{max(1, args.threads)}", str(script), str(work), str(out)]
+    env = dict(os.environ, OMP_NUM_THREADS=str(max(1, args.threads)))
+    # YADE's banner and its own messages go to the work directory's log; errors also to stderr
+    with open(work / "yade.log", "w") as log:
+        res = subprocess.run(cmd, cwd=ROOT, env=env, stdout=log, stderr=None if not args.quiet else subprocess.PIPE,
+                             text=True)
+    if args.quiet and res.returncode != 0 and res.stderr:
+        sys.stderr.write(res.stderr)
+    if res.returncode != 0:
+        print(f"yade_cases: error: yade exited with status {res.returncode} (log: {work / 'yade.log'})",
+              file=sys.stderr)
+    return res.returncode
+
+
+def _is_drum(scene) -> bool:
+    import tomllib
+    try:
+        with open(scene, "rb") as f:
+            return tomllib.load(f).get("scene", {}).get("kind") == "drum"
+    except (OSError, tomllib.TOMLDecodeError):
+        return False  # granular init reports the problem
+
+
+if __name__ == "__main__":
+    sys.exit(main())

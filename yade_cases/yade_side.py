@@ -1,0 +1,72 @@
+"""Helpers for the YADE scripts (drum_case.py, box_case.py, two_body.py): only
+importable inside the `yade` launcher."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+import yade
+from yade import O
+
+
+def version() -> str:
+    return str(yade.config.version)
+
+
+def run_steps(n: int) -> None:
+    """O.run(n, True), guarded: O.run(0, True) never returns (ENGINES.md)."""
+    if n > 0:
+        O.run(int(n), True)
+
+
+def states(ids, angular=True):
+    """Positions, velocities (and angular velocities) of the bodies ids, (n, 3) each."""
+    bodies = O.bodies
+    x = np.empty((len(ids), 3))
+    v = np.empty((len(ids), 3))
+    w = np.empty((len(ids), 3)) if angular else None
+    for k, i in enumerate(ids):
+        st = bodies[int(i)].state
+        x[k] = tuple(st.pos)
+        v[k] = tuple(st.vel)
+        if angular:
+            w[k] = tuple(st.angVel)
+    return x, v, w
+
+
+def forces(ids):
+    f = np.empty((len(ids), 3))
+    for k, i in enumerate(ids):
+        f[k] = tuple(O.forces.f(int(i)))
+    return f
+
+
+class Progress:
+    def __init__(self, n_particles: int, quiet: bool):
+        self.n, self.quiet = n_particles, quiet
+        self.t0 = time.perf_counter()
+        self.last = 0.0
+
+    def show(self, text: str, steps_done: int, force=False):
+        if self.quiet:
+            return
+        now = time.perf_counter()
+        if force or now - self.last > 0.5:
+            self.last = now
+            el = max(now - self.t0, 1e-9)
+            print(f"\r  {text}  {steps_done * self.n / el:.3g} particle-steps/s   ", end="", file=sys.stderr,
+                  flush=True)
+
+    def finish(self, out, total_steps: int):
+        """Records the speed in the output and closes it; returns particle-steps/s."""
+        elapsed = time.perf_counter() - self.t0
+        rate = total_steps * self.n / elapsed if elapsed > 0 else 0.0
+        out.h5.attrs["wall_seconds"] = elapsed
+        out.h5.attrs["atom_steps_per_second"] = rate
+        out.close()
+        if not self.quiet:
+            print(f"\ndone: {total_steps} steps in {elapsed:.1f} s, {rate:.3g} particle-steps/s", file=sys.stderr)
+        return rate
