@@ -4,7 +4,7 @@ every engine sees the same machine load, with the ratios.
 
 Each case is one command that prints JSON with a particles-steps/s figure:
 `granular bench --json` for the native engine, `python3 -m lammps_cases bench
---json` for LAMMPS. Cases run in rounds (every case once per round, in the
+--json` for LAMMPS, `python3 -m yade_cases run --timed-from` for YADE (with --yade). Cases run in rounds (every case once per round, in the
 same order), and the median over rounds is reported, with min and max.
 
 The figures are particle-steps per second of wall time: particles counted as
@@ -40,6 +40,7 @@ class Case:
     sets: list = field(default_factory=list)
     rates: list = field(default_factory=list)
     particles: int = 0
+    scratch: Path = Path("/tmp/compare_bench_yade.h5")  # YADE's output, overwritten each round
 
     def command(self, timed: float, settle: float) -> list[str]:
         drum = "drum" in self.scene
@@ -49,6 +50,14 @@ class Case:
             span = ["--rotations" if drum else "--seconds", repr(timed)]
             return [exe, "bench", self.scene, "--threads", str(self.workers), "--repeat", "1",
                     "--settle", repr(settle), "--json", *span, *sets]
+        if self.engine == "yade":
+            total = settle + timed
+            length = ([f"run.rotations={total!r}", f"run.snapshot_every={2 * total!r}",
+                       f"run.profile_every={2 * total!r}"] if drum else
+                      [f"run.duration={total!r}", "run.snapshot_every_cycles=1e9", "run.trace_per_cycle=1"])
+            return [PY, "-m", "yade_cases", "run", self.scene, "-o", str(self.scratch), "-q", "--force",
+                    "--threads", str(self.workers), "--timed-from", repr(settle),
+                    *sets, *sum((["--set", kv] for kv in length), [])]
         span = ["--rotations" if drum else "--seconds", repr(timed)]
         return [PY, "-m", "lammps_cases", "bench", self.scene, "--np", str(self.workers), "--settle", repr(settle),
                 "--json", *span, *sets]
@@ -59,6 +68,13 @@ class Case:
         p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
         if p.returncode != 0:
             raise RuntimeError(f"bench case {self.key} failed ({' '.join(cmd)}):\n{p.stderr.strip()}")
+        if self.engine == "yade":
+            import h5py
+            with h5py.File(self.scratch, "r") as h5:
+                rate = float(h5.attrs["timed_atom_steps_per_second"])
+                self.particles = int(h5["frames/id"].shape[1])
+            self.rates.append(rate)
+            return rate
         data = json.loads(p.stdout)
         if self.engine == "native":
             row = data[0]
@@ -92,6 +108,18 @@ def default_cases(threads=(1, 2), lammps_ranks=(1, 2)) -> list[Case]:
     return cases
 
 
+def yade_cases(threads=(1, 2)) -> list[Case]:
+    """YADE on the same scenes: drum #A under YADE's law mapped from the linear
+    law on a facet cylinder, the box under YADE's law with the wall particles
+    moved by a Python hook every step (yade_cases/README.md)."""
+    drum, box = "scenes/drum/A.toml", "scenes/box/f3.0_big.toml"
+    cases = [Case(f"drum-yade-{t}t", drum, "yade", "YADE ViscEl law, leapfrog", t) for t in threads]
+    cases += [Case(f"drum-native-viscel-{t}t", drum, "native", "YADE's law (native), leapfrog", t,
+                   ["contact.law=viscel"]) for t in threads]
+    cases += [Case(f"box-yade-{t}t", box, "yade", "YADE ViscEl law, leapfrog", t) for t in threads]
+    return cases
+
+
 RATIOS = [  # (numerator, denominator, what it says)
     ("drum-native-linear-1t", "drum-lammps-1r", "drum, same law: native 1 thread / LAMMPS serial"),
     ("drum-native-rapaport-1t", "drum-lammps-1r", "drum: native Rapaport law / LAMMPS linear law, serial"),
@@ -103,6 +131,12 @@ RATIOS = [  # (numerator, denominator, what it says)
     ("box-native-gear-1t", "box-lammps-1r", "box: native Gear / LAMMPS serial"),
     ("box-native-verlet-2t", "box-native-verlet-1t", "box: native Verlet 2 threads / 1 thread"),
     ("box-native-gear-2t", "box-native-gear-1t", "box: native Gear 2 threads / 1 thread"),
+    ("drum-native-viscel-1t", "drum-yade-1t", "drum, same law: native 1 thread / YADE 1 thread"),
+    ("drum-native-viscel-2t", "drum-yade-2t", "drum, same law: native 2 threads / YADE 2 threads"),
+    ("drum-yade-2t", "drum-yade-1t", "drum: YADE 2 threads / 1 thread"),
+    ("box-native-verlet-1t", "box-yade-1t", "box: native Verlet / YADE, 1 thread"),
+    ("box-native-verlet-2t", "box-yade-2t", "box: native Verlet / YADE, 2 threads"),
+    ("box-yade-2t", "box-yade-1t", "box: YADE 2 threads / 1 thread"),
 ]
 
 
@@ -142,7 +176,7 @@ def markdown(result) -> str:
 
 
 def main(args) -> int:
-    cases = default_cases()
+    cases = default_cases() + (yade_cases() if args.yade else [])
     if args.only:
         cases = [c for c in cases if any(k in c.key for k in args.only)]
         if not cases:

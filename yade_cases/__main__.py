@@ -10,6 +10,7 @@ anything runs) or the output exists (without --force)."""
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import shutil
 import subprocess
@@ -60,6 +61,9 @@ def main(argv=None):
                         "with radius error <= 0.01)")
     r.add_argument("--force", action="store_true", help="overwrite an existing output file")
     r.add_argument("-q", "--quiet", action="store_true")
+    r.add_argument("--timed-from", type=float, default=None,
+                   help="also time the speed alone from this many rotations (drum) or seconds of shaking "
+                        "(box) on: attribute timed_atom_steps_per_second (compare bench)")
     args = ap.parse_args(argv)
 
     out = Path(args.output)
@@ -82,6 +86,11 @@ def main(argv=None):
     work = Path(str(out) + ".yade")
     options = {"quiet": args.quiet, "threads": args.threads, "segments": args.segments,
                "scene_path": str(args.scene), "sets": args.set}
+    if args.timed_from is not None:
+        dt = float(ini.scene["integrator"]["dt"])
+        t = (args.timed_from * 2 * math.pi / float(ini.scene["drum"]["omega"]) if ini.kind == "drum"
+             else float(ini.scene["run"]["settle"]) + args.timed_from)
+        options["timed_from_step"] = int(math.floor(t / dt + 0.5))
     write_workdir(work, ini, options)
     script = HERE / ("drum_case.py" if ini.kind == "drum" else "box_case.py")
     if out.exists():

@@ -119,6 +119,9 @@ def main(work, out_path):
     shaker = SHAKE["shaker"]
     total, settle_steps, snaps, traces = box_schedule(s)
     stops = sorted(snaps | traces)
+    mark = opts.get("timed_from_step")
+    if mark is not None:
+        stops = sorted(set(stops) | {int(mark)})
 
     n = len(ini["id"])
     ids = np.arange(n, dtype=np.int64)
@@ -145,6 +148,8 @@ def main(work, out_path):
     for stop in stops:
         run_steps(stop - done)
         done = stop
+        if mark is not None and done == int(mark):
+            prog.mark(done)
         t = done * dt
         if stop in snaps:
             xs, vs, ws = states(ids)

@@ -145,6 +145,9 @@ def main(work, out_path):
     period = 2 * math.pi / omega
     total, snap_steps, prof_steps, edges = drum_schedule(s)
     stops = sorted(snap_steps | prof_steps)
+    mark = opts.get("timed_from_step")
+    if mark is not None:
+        stops = sorted(set(stops) | {int(mark)})
 
     n = len(ini["id"])
     ids = np.arange(n, dtype=np.int64)
@@ -171,6 +174,8 @@ def main(work, out_path):
     for stop in stops:
         run_steps(stop - done)
         done = stop
+        if mark is not None and done == int(mark):
+            prog.mark(done)
         x, v, w = states(ids, angular=stop in snap_steps)
         if not capped:
             x[:, 1] = (x[:, 1] + 0.5 * length) % length - 0.5 * length

@@ -49,6 +49,11 @@ class Progress:
         self.n, self.quiet = n_particles, quiet
         self.t0 = time.perf_counter()
         self.last = 0.0
+        self.mark_step, self.mark_clock = None, None
+
+    def mark(self, step: int):
+        """From here on the speed is also timed alone (bench: settling excluded)."""
+        self.mark_step, self.mark_clock = step, time.perf_counter()
 
     def show(self, text: str, steps_done: int, force=False):
         if self.quiet:
@@ -62,10 +67,14 @@ class Progress:
 
     def finish(self, out, total_steps: int):
         """Records the speed in the output and closes it; returns particle-steps/s."""
-        elapsed = time.perf_counter() - self.t0
+        end = time.perf_counter()
+        elapsed = end - self.t0
         rate = total_steps * self.n / elapsed if elapsed > 0 else 0.0
         out.h5.attrs["wall_seconds"] = elapsed
         out.h5.attrs["atom_steps_per_second"] = rate
+        if self.mark_clock is not None and total_steps > self.mark_step:
+            out.h5.attrs["timed_from_step"] = self.mark_step
+            out.h5.attrs["timed_atom_steps_per_second"] = (total_steps - self.mark_step) * self.n / (end - self.mark_clock)
         out.close()
         if not self.quiet:
             print(f"\ndone: {total_steps} steps in {elapsed:.1f} s, {rate:.3g} particle-steps/s", file=sys.stderr)
