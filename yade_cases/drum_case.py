@@ -31,7 +31,8 @@ from yade.wrapper import (ForceResetter, InsertionSortCollider, Bo1_Sphere_Aabb,
 from yade.minieigenHP import Quaternion, Vector3  # noqa: E402
 
 from compare.schema_writer import SchemaWriter, axial_small_fraction  # noqa: E402
-from yade_cases.common import drum_schedule, read_workdir  # noqa: E402
+from compare.schedule import drum_schedule  # noqa: E402
+from yade_cases.common import read_workdir  # noqa: E402
 from yade_cases.mapping import (SPECIES, check_viscel_law, mismatch, pair_values, particle_material,  # noqa: E402
                                 polygon_radius_error, viscel_from_linear, wall_spread)
 from yade_cases.yade_side import Progress, run_steps, states, version  # noqa: E402
