@@ -833,6 +833,9 @@ def observe_box(run, reference=None):
     out["velocity_field"] = VelocityField().compute(run).as_dict()
     if _big_column(run) is not None:
         out["force_ratio"] = ForceRatio().compute(run, reference=reference).as_dict()
+    from .coulomb import BOX_SPECIES, CoulombCap, read_census
+    if read_census(run.path) is not None:
+        out["coulomb"] = CoulombCap(Shaker(run).settle, BOX_SPECIES).compute(run.path).as_dict()
     return clean_json(out)
 
 

@@ -10,6 +10,7 @@ import numpy as np
 
 from ._common import clean_json
 from .bands import BandCount, BandFormation
+from .coulomb import CoulombCap, read_census
 from .profile import AxialProfile
 from .reader import read_run
 from .spacetime import SpaceTime
@@ -76,6 +77,9 @@ def observe(path, params=None, reference=None):
     }
     if "surface" in obs:
         d["surface"] = obs["surface"].as_dict()
+    if read_census(run.path) is not None:
+        skip = float((params or {}).get("surface.skip_rotations", DEFAULTS["surface.skip_rotations"]))
+        d["coulomb"] = CoulombCap(skip * run.rotation_period).compute(run.path).as_dict()
     return clean_json(d)
 
 

@@ -199,9 +199,9 @@ void write_initial(H5Output& out, const Sim& sim) {
   std::vector<std::size_t> order(sim.p.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return sim.p.id[a] < sim.p.id[b]; });
-  out.init_series("initial", {{"id", 1}, {"mass", 1}, {"inertia", 1}});
+  const int h = out.init_series("initial", {{"id", 1}, {"mass", 1}, {"inertia", 1}});
   for (std::size_t i : order)
-    out.series({{static_cast<double>(sim.p.id[i])}, {1.0 / sim.p.inv_m[i]}, {1.0 / sim.p.inv_i[i]}});
+    out.series(h, {{static_cast<double>(sim.p.id[i])}, {1.0 / sim.p.inv_m[i]}, {1.0 / sim.p.inv_i[i]}});
 }
 
 int init_scene(const Loaded& l, const std::string& scene_path, std::string out_path) {

@@ -40,6 +40,10 @@ struct LinearLaw {
   std::array<Coeff, kSpecies * kSpecies> pair{};  // [c_i * kSpecies + c_j]
   std::array<Coeff, kSpecies> wall{};             // [c_i]
 
+  // The Coulomb coefficient of a contact (engine/coulomb_census.hpp).
+  double coulomb_mu(int ci, int cj) const { return pair[ci * kSpecies + cj].mu; }
+  double wall_coulomb_mu(int ci) const { return wall[ci].mu; }
+
   // Contact when r < R_i + R_j; a smooth wall has zero thickness (d_wall = 0).
   GRANULAR_INLINE static double range(double di, double dj) { return 0.5 * (di + dj); }
 

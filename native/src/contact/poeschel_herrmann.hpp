@@ -40,6 +40,11 @@ struct PoeschelHerrmannLaw {
   double gamma_n = 100;  // gamma_N, 1/s
   double gamma_s = 1;    // gamma_S, 1/s
   double mu = 0.5;       // Coulomb coefficient
+  static constexpr int kSpecies = 3;  // grain, big disk, wall particle (integrate/motion.hpp)
+
+  // The Coulomb coefficient of a contact (engine/coulomb_census.hpp); walls are particles.
+  double coulomb_mu(int, int) const { return mu; }
+  double wall_coulomb_mu(int) const { return mu; }
 
   // Contact when |r_i - r_j| < R_i + R_j.
   GRANULAR_INLINE static double range(double di, double dj) { return 0.5 * (di + dj); }

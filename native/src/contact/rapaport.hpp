@@ -38,6 +38,10 @@ struct RapaportLaw {
   std::array<Friction, kSpecies * kSpecies> pair{};  // [c_i * kSpecies + c_j]
   std::array<Friction, kSpecies> wall{};            // [c_i]
 
+  // The Coulomb coefficient of a contact (engine/coulomb_census.hpp).
+  double coulomb_mu(int ci, int cj) const { return pair[ci * kSpecies + cj].mu; }
+  double wall_coulomb_mu(int ci) const { return wall[ci].mu; }
+
   // Interaction range for particles (or particle and wall) of diameters d_i, d_j.
   GRANULAR_INLINE static double range(double di, double dj) { return kCutFactor * 0.5 * (di + dj); }
 

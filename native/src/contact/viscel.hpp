@@ -50,6 +50,14 @@ struct ViscElLaw {
   std::array<Material, kSpecies> mat{};
   std::array<WallMaterial, kSpecies> wall{};  // the facet cylinder species c touches
 
+  // The Coulomb coefficient of the capped law this one was mapped from. The law
+  // never uses it; engine/coulomb_census.hpp counts the contacts whose viscous
+  // tangential force exceeds mu |F_n|, i.e. where a cap would have bound.
+  std::array<double, kSpecies * kSpecies> mu_ref{};
+  std::array<double, kSpecies> wall_mu_ref{};
+  double coulomb_mu(int ci, int cj) const { return mu_ref[ci * kSpecies + cj]; }
+  double wall_coulomb_mu(int ci) const { return wall_mu_ref[ci]; }
+
   GRANULAR_INLINE static double mix(double a, double b) {
     if (a == 0.0) return b;
     if (b == 0.0) return a;

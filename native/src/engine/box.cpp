@@ -1,5 +1,7 @@
 #include "engine/box.hpp"
 
+#include "engine/coulomb_census.hpp"
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -68,8 +70,11 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress) {
   const long total = std::lround((s.settle + s.duration) / s.dt);
   const long settle_steps = std::lround(s.settle / s.dt);
   const bool has_big = big_index(sim) < sim.p.size();
+  int trace_h = -1, census_h = -1;
   if (out && has_big)
-    out->init_series("trace", {{"time", 1}, {"cycle", 1}, {"box_y", 1}, {"big_position", 2}, {"big_velocity", 2}});
+    trace_h = out->init_series("trace",
+                               {{"time", 1}, {"cycle", 1}, {"box_y", 1}, {"big_position", 2}, {"big_velocity", 2}});
+  if (out) census_h = init_census(*out, decltype(sim.law)::kSpecies);
   long snap_k = 0, trace_k = 0;
   auto observe = [&](bool force_frame) {
     ScopedPhase ph(sim.timers, Phase::observe);
@@ -85,10 +90,13 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress) {
       trace_k = static_cast<long>(std::floor(c * s.trace_per_cycle));
     }
     if (snap || trace) check_contained(sim, s);
-    if (out && snap) out->frame(sim.time, sim.step_count, sim.p);
+    if (out && snap) {
+      out->frame(sim.time, sim.step_count, sim.p);
+      write_census(*out, census_h, sim.time, coulomb_census(sim));
+    }
     if (out && trace && has_big) {
       const std::size_t b = big_index(sim);
-      out->series({{sim.time}, {c}, {sim.integrator.motion.y(sim.time)},
+      out->series(trace_h, {{sim.time}, {c}, {sim.integrator.motion.y(sim.time)},
                    {sim.p.x[b].x(), sim.p.x[b].y()}, {sim.p.v[b].x(), sim.p.v[b].y()}});
     }
   };

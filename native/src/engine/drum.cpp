@@ -9,6 +9,7 @@
 #include <sstream>
 #include <type_traits>
 
+#include "engine/coulomb_census.hpp"
 #include "scene/law_mapping.hpp"
 
 namespace granular {
@@ -114,13 +115,17 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress) {
     while (s.steps_per(k * every) <= sim.step_count) ++k;
     return true;
   };
+  const int census = out ? init_census(*out, decltype(sim.law)::kSpecies) : -1;
   auto observe = [&](bool final_step) {
     ScopedPhase ph(sim.timers, Phase::observe);
     const bool prof = due(prof_k, s.profile_every) || final_step;
     const bool snap = due(snap_k, s.snapshot_every) || final_step;
     if (prof) {
       check_inside(sim, s);
-      if (out) out->profile(sim.time, axial_small_fraction(sim.p, edges));
+      if (out) {
+        out->profile(sim.time, axial_small_fraction(sim.p, edges));
+        write_census(*out, census, sim.time, coulomb_census(sim));
+      }
     }
     if (out && snap) out->frame(sim.time, sim.step_count, sim.p);
   };

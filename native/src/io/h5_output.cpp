@@ -36,9 +36,11 @@ H5Output::~H5Output() {
   for (Appendable* a : {&f_time_, &f_step_, &f_id_, &f_species_, &f_diam_, &f_pos_, &f_vel_, &f_ang_, &p_time_,
                         &p_frac_, &f_force_})
     if (a->dset >= 0) H5Dclose(a->dset);
-  for (auto& a : series_)
-    if (a.dset >= 0) H5Dclose(a.dset);
-  if (series_group_ >= 0) H5Gclose(series_group_);
+  for (auto& g : series_) {
+    for (auto& a : g.columns)
+      if (a.dset >= 0) H5Dclose(a.dset);
+    if (g.group >= 0) H5Gclose(g.group);
+  }
   if (profile_ >= 0) H5Gclose(profile_);
   if (frames_ >= 0) H5Gclose(frames_);
   if (file_ >= 0) H5Fclose(file_);
@@ -115,17 +117,21 @@ void H5Output::profile(double time, const std::vector<double>& frac) {
   check(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flushing", path_);
 }
 
-void H5Output::init_series(const std::string& group, const std::vector<std::pair<std::string, int>>& columns) {
-  series_group_ = H5Gcreate2(file_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+int H5Output::init_series(const std::string& group, const std::vector<std::pair<std::string, int>>& columns) {
+  Series g;
+  g.group = H5Gcreate2(file_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   for (const auto& [name, width] : columns) {
     std::vector<hsize_t> row;
     if (width > 1) row.push_back(static_cast<hsize_t>(width));
-    series_.push_back(make(series_group_, name.c_str(), H5T_NATIVE_DOUBLE, row));
+    g.columns.push_back(make(g.group, name.c_str(), H5T_NATIVE_DOUBLE, row));
   }
+  series_.push_back(std::move(g));
+  return static_cast<int>(series_.size()) - 1;
 }
 
-void H5Output::series(const std::vector<std::vector<double>>& row) {
-  for (std::size_t k = 0; k < series_.size(); ++k) append(series_[k], row[k].data());
+void H5Output::series(int handle, const std::vector<std::vector<double>>& row) {
+  auto& cols = series_.at(static_cast<std::size_t>(handle)).columns;
+  for (std::size_t k = 0; k < cols.size(); ++k) append(cols[k], row[k].data());
   check(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flushing", path_);
 }
 

@@ -34,9 +34,10 @@ class H5Output {
   void profile(double time, const std::vector<double>& small_fraction);
 
   // A group of datasets that grow together by one row per sample (e.g. the
-  // big disk's trajectory); each column has a fixed row width.
-  void init_series(const std::string& group, const std::vector<std::pair<std::string, int>>& columns);
-  void series(const std::vector<std::vector<double>>& row);
+  // big disk's trajectory); each column has a fixed row width. Returns the
+  // handle that series() appends to.
+  int init_series(const std::string& group, const std::vector<std::pair<std::string, int>>& columns);
+  void series(int handle, const std::vector<std::vector<double>>& row);
 
   const std::string& path() const { return path_; }
 
@@ -60,8 +61,11 @@ class H5Output {
   Appendable f_time_, f_step_, f_id_, f_species_, f_diam_, f_pos_, f_vel_, f_ang_;
   Appendable p_time_, p_frac_, f_force_;
   bool with_force_ = false;
-  hid_t series_group_ = -1;
-  std::vector<Appendable> series_;
+  struct Series {
+    hid_t group = -1;
+    std::vector<Appendable> columns;
+  };
+  std::vector<Series> series_;
 };
 
 template <int Dim>

@@ -137,6 +137,11 @@ ViscElMapping map_linear_to_viscel(const DrumScene& s, const LinearMapping& lin)
     }
     v.law.wall[a] = {got[0], got[1], got[2]};
   }
+  // The capped law's Coulomb coefficients, kept for the census only.
+  for (int a = 0; a < 2; ++a) {
+    v.law.wall_mu_ref[a] = lin.law.wall[a].mu;
+    for (int b = 0; b < 2; ++b) v.law.mu_ref[a * ViscElLaw<3>::kSpecies + b] = lin.law.pair[a * 2 + b].mu;
+  }
   return v;
 }
 
