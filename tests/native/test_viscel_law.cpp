@@ -7,7 +7,9 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "contact/poeschel_herrmann.hpp"
 #include "contact/viscel.hpp"
+#include "engine/box.hpp"
 #include "scene/drum_scene.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
@@ -97,6 +99,43 @@ TEST(ViscElMapping, SameSpeciesPairsAndWallsReproduceTheLinearLaw) {
     EXPECT_NEAR(Law::mix(mat.kn, v.law.wall[a].kn), w.kn, 1e-9 * w.kn);
     EXPECT_NEAR(Law::mix(mat.cn_per_mass * m, v.law.wall[a].cn), w.gamma_n * m, 1e-9 * w.gamma_n * m);
     EXPECT_NEAR(Law::mix(mat.cs_per_mass * m, v.law.wall[a].cs), w.xgamma_t * w.gamma_n * m, 1e-9);
+  }
+}
+
+// The box with contact.law = "viscel": the Poeschel-Herrmann pair and
+// grain-wall-particle coefficients (k_n = Y, c_n = gamma_N m_eff, c_s =
+// gamma_S m_eff) from one per-mass material per species, for unequal masses
+// and for a wall particle of infinite mass; mu kept for the census.
+TEST(ViscElMapping, BoxReproducesThePapersCoefficients) {
+  const char* src = std::getenv("GRANULAR_SOURCE_DIR");
+  const auto path = std::filesystem::path(src ? src : ".") / "scenes/box/f3.0_big.toml";
+  for (const char* wall_mass : {"box.wall_mass=\"particle\"", "box.wall_mass=\"infinite\""}) {
+    SceneFile f(path.string(), {"contact.law=\"viscel\"", "integrator.kind=\"verlet\"", wall_mass});
+    const BoxScene s = read_box_scene(f);
+    BoxSim sim = make_box(s);
+    const auto& law = std::get<BoxViscElOf<BoxVerlet>>(sim).law;
+    PoeschelHerrmannLaw<2> ph;
+    ph.young = s.young;
+    ph.gamma_n = s.gamma_n;
+    ph.gamma_s = 1e9;  // cap always binds: only the normal component is compared here
+    ph.mu = 0.0;
+    const double mi = 5.0, mj = 11.0;
+    const Eigen::Vector2d dr(1.99, 0.0), v(-3.0, 0.0);  // d = 2 each: overlap 0.01, approaching
+    for (int cj : {0, 1, 2}) {
+      const double inv_mj = (cj == 2 && s.wall_infinite_mass) ? 0.0 : 1.0 / mj;
+      const auto a = law.pair_force(dr, dr.squaredNorm(), 2.0, 2.0, v, Ang<2>::Zero(), Ang<2>::Zero(), 0, cj,
+                                    1.0 / mi, inv_mj);
+      const auto b = ph.pair_force(dr, dr.squaredNorm(), 2.0, 2.0, v, Ang<2>::Zero(), Ang<2>::Zero(), 0, cj,
+                                   1.0 / mi, inv_mj);
+      EXPECT_NEAR(a.f.x(), b.f.x(), 1e-9 * std::abs(b.f.x())) << wall_mass << " species " << cj;
+      // sliding at 2 along y: c_s = gamma_S m_eff, uncapped
+      const Eigen::Vector2d vs(0.0, 2.0);
+      const auto t = law.pair_force(dr, dr.squaredNorm(), 2.0, 2.0, vs, Ang<2>::Zero(), Ang<2>::Zero(), 0, cj,
+                                    1.0 / mi, inv_mj);
+      const double meff = 1.0 / (1.0 / mi + inv_mj);
+      EXPECT_NEAR(t.f.y(), -s.gamma_s * meff * 2.0, 1e-9) << wall_mass << " species " << cj;
+      EXPECT_EQ(law.coulomb_mu(0, cj), s.mu);
+    }
   }
 }
 

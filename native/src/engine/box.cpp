@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <type_traits>
 
 namespace granular {
 
@@ -22,10 +23,21 @@ void configure(Sim& sim, const BoxScene& s) {
   sim.box.hi = Eigen::Vector2d(xw + s.wall_radius + 1.0, top + 50.0);
   sim.box.periodic = {false, false};
   sim.box.finalize();
-  sim.law.young = s.young;  // Y
-  sim.law.gamma_n = s.gamma_n;
-  sim.law.gamma_s = s.gamma_s;
-  sim.law.mu = s.mu;
+  if constexpr (std::is_same_v<decltype(sim.law), ViscElLaw<2>>) {
+    // One material per species, coefficients per unit mass: harmonic mixing
+    // gives a pair k_n = Y, c_n = gamma_N m_eff, c_s = gamma_S m_eff for any two
+    // masses (and m_eff = m_i against an infinitely heavy wall particle), i.e.
+    // Eqs. (1)-(6) with the normal force clipped at zero and no Coulomb cap,
+    // as yade_cases/box_case.py sets up YADE (one ViscElMat per particle).
+    for (auto& m : sim.law.mat) m = {2.0 * s.young, s.gamma_n, s.gamma_s};
+    for (int a = 0; a < ViscElLaw<2>::kSpecies; ++a)
+      for (int b = 0; b < ViscElLaw<2>::kSpecies; ++b) sim.law.mu_ref[a * ViscElLaw<2>::kSpecies + b] = s.mu;
+  } else {
+    sim.law.young = s.young;  // Y
+    sim.law.gamma_n = s.gamma_n;
+    sim.law.gamma_s = s.gamma_s;
+    sim.law.mu = s.mu;
+  }
   sim.integrator.dt = s.dt;
   sim.integrator.gravity = Eigen::Vector2d(0.0, -s.gravity);  // F = -m g y^
   auto& m = sim.integrator.motion;
@@ -134,10 +146,12 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress) {
 
 BoxSim make_box(const BoxScene& s) {
   BoxSim sim;
-  if (!s.literal_damping && s.gear) sim.emplace<0>();
-  if (!s.literal_damping && !s.gear) sim.emplace<1>();
+  if (!s.viscel && !s.literal_damping && s.gear) sim.emplace<0>();
+  if (!s.viscel && !s.literal_damping && !s.gear) sim.emplace<1>();
   if (s.literal_damping && s.gear) sim.emplace<2>();
   if (s.literal_damping && !s.gear) sim.emplace<3>();
+  if (s.viscel && s.gear) sim.emplace<4>();
+  if (s.viscel && !s.gear) sim.emplace<5>();
   std::visit([&](auto& v) { configure(v, s); }, sim);
   return sim;
 }

@@ -7,6 +7,7 @@
 #include "engine/drum.hpp"  // RunReport
 #include "engine/simulation.hpp"
 #include "integrate/gear.hpp"
+#include "contact/viscel.hpp"
 #include "integrate/leapfrog.hpp"
 #include "integrate/motion.hpp"
 #include "io/h5_output.hpp"
@@ -18,8 +19,10 @@ template <bool Literal, class Integrator>
 using BoxSimOf = Simulation<2, PoeschelHerrmannLaw<2, Literal>, Integrator>;
 using BoxGear = Gear5<2, ShakerMotion<2>>;
 using BoxVerlet = Leapfrog<2, ShakerMotion<2>>;
+template <class Integrator>
+using BoxViscElOf = Simulation<2, ViscElLaw<2>, Integrator>;  // YADE's law, for engine comparisons
 using BoxSim = std::variant<BoxSimOf<false, BoxGear>, BoxSimOf<false, BoxVerlet>, BoxSimOf<true, BoxGear>,
-                            BoxSimOf<true, BoxVerlet>>;
+                            BoxSimOf<true, BoxVerlet>, BoxViscElOf<BoxGear>, BoxViscElOf<BoxVerlet>>;
 
 BoxSim make_box(const BoxScene& s);
 

@@ -30,6 +30,7 @@ struct BoxScene {
   double big_radius = 4.0, big_gap = 2.0;  // gap between the floor surface and the big disk's bottom
   // [contact]
   double young = 3e6, gamma_n = 100.0, gamma_s = 1.0, mu = 0.5;
+  bool viscel = false;           // YADE's law (contact/viscel.hpp) instead of Eqs. (1)-(6)
   bool literal_damping = false;  // Eq. (2) as printed (|v_ij|) instead of the normal component
   double gravity = 981.0;
   // [integrator], [neighbor]
