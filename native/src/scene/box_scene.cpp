@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <random>
+#include <sstream>
 
 #include "integrate/motion.hpp"
 
@@ -9,7 +10,26 @@ namespace granular {
 
 double BoxScene::mass(double r) const { return (mass_area ? 1.0 : 2.0) * M_PI * r * r * density; }
 
-BoxScene read_box_scene(SceneFile& f) {
+namespace {
+
+// Only the required keys: reading it lists every key a shaken-box scene has.
+constexpr const char* kMinimalBox = R"(
+[scene]
+kind = "shaken_box"
+name = "minimal"
+[shaking]
+frequency = 3.0
+[run]
+duration = 1.0
+)";
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+BoxScene read_fields(SceneFile& f) {
   BoxScene s;
   f.choice("scene.kind", {"shaken_box"});
   s.name = f.text("scene.name");
@@ -28,13 +48,16 @@ BoxScene read_box_scene(SceneFile& f) {
   s.ramp_time = f.non_negative("shaking.ramp_time", f.number("shaking.ramp_time", 0.0));
   s.startup_cycles = f.non_negative("shaking.startup_cycles", f.number("shaking.startup_cycles", 2.0));
   if (s.ramp_to != s.frequency && s.ramp_time == 0.0)
-    f.fail("shaking.ramp_time", "must be > 0 when shaking.ramp_to differs from shaking.frequency");
+    f.fail("shaking.ramp_time", "must be > 0 when shaking.ramp_to (" + f.origin("shaking.ramp_to") +
+                                    ") differs from shaking.frequency");
 
   s.count = f.integer("particles.count", 950);
   if (s.count < 1) f.fail("particles.count", "must be >= 1");
   s.radius_min = f.positive("particles.radius_min", f.number("particles.radius_min", 0.85));
   s.radius_max = f.positive("particles.radius_max", f.number("particles.radius_max", 1.15));
-  if (s.radius_max < s.radius_min) f.fail("particles.radius_max", "must be >= particles.radius_min");
+  if (s.radius_max < s.radius_min)
+    f.fail("particles.radius_max", "must be >= particles.radius_min (" + num(s.radius_min) + ", " +
+                                       f.origin("particles.radius_min") + "), got " + num(s.radius_max));
   s.density = f.positive("particles.density", f.number("particles.density", 1.0));
   s.mass_area = f.choice("particles.mass_rule", {"paper", "area"}, "paper") == "area";
   const long seed = f.integer("particles.seed", 1);
@@ -52,12 +75,14 @@ BoxScene read_box_scene(SceneFile& f) {
   s.mu = f.non_negative("contact.mu", f.number("contact.mu", 0.5));
   s.literal_damping = f.choice("contact.damping", {"normal", "literal"}, "normal") == "literal";
   if (s.viscel && s.literal_damping)
-    f.fail("contact.damping", "\"literal\" is a reading of Poeschel & Herrmann's Eq. (2); contact.law = \"viscel\" "
-                              "damps the normal component only");
+    f.fail("contact.damping", "\"literal\" is a reading of Poeschel & Herrmann's Eq. (2); contact.law = \"viscel\" (" +
+                                  f.origin("contact.law") + ") damps the normal component only");
   // YADE's harmonic mixing takes a zero coefficient as absent, so a zero gamma
   // cannot be represented per material (contact/viscel.hpp).
-  if (s.viscel && s.gamma_n <= 0) f.fail("contact.gamma_n", "must be > 0 with contact.law = \"viscel\"");
-  if (s.viscel && s.gamma_s <= 0) f.fail("contact.gamma_s", "must be > 0 with contact.law = \"viscel\"");
+  if (s.viscel && s.gamma_n <= 0)
+    f.fail("contact.gamma_n", "must be > 0 with contact.law = \"viscel\" (" + f.origin("contact.law") + ")");
+  if (s.viscel && s.gamma_s <= 0)
+    f.fail("contact.gamma_s", "must be > 0 with contact.law = \"viscel\" (" + f.origin("contact.law") + ")");
   s.gravity = f.non_negative("gravity.g", f.number("gravity.g", 981.0));
 
   s.gear = f.choice("integrator.kind", {"gear", "verlet"}, "gear") == "gear";
@@ -71,9 +96,29 @@ BoxScene read_box_scene(SceneFile& f) {
   if (s.trace_per_cycle < 1) f.fail("run.trace_per_cycle", "must be >= 1");
 
   f.text("paper.note", "");
-  if (s.big && 2.0 * s.big_radius >= s.width) f.fail("big.radius", "the big disk does not fit in the box");
+  if (s.big && 2.0 * s.big_radius >= s.width)
+    f.fail("big.radius", "the big disk does not fit in the box: diameter " + num(2.0 * s.big_radius) +
+                             " >= box.width = " + num(s.width) + " (" + f.origin("box.width") + ")");
+  // box_particles places grains on a square lattice of pitch 2 R_max + 0.1.
+  if (s.width < 2.0 * s.radius_max + 0.1)
+    f.fail("box.width", "too small for its particles: " + num(s.width) + " is narrower than one grain of radius " +
+                            num(s.radius_max) + " (particles.radius_max, " + f.origin("particles.radius_max") +
+                            ") with its placement clearance (" + num(2.0 * s.radius_max + 0.1) + ")");
   if (s.wall_spacing > 2.0 * s.wall_radius + 2.0 * s.radius_min)
     f.fail("box.wall_spacing", "leaves gaps wider than the smallest grain");
+  return s;
+}
+
+}  // namespace
+
+BoxScene read_box_scene(SceneFile& f) {
+  static const std::vector<std::string> known = [] {
+    SceneFile minimal = SceneFile::from_text(kMinimalBox, "<built-in shaken-box scene>");
+    read_fields(minimal);
+    return minimal.read_keys();
+  }();
+  f.reject_keys_outside(known);
+  BoxScene s = read_fields(f);
   f.reject_unknown_keys();
   return s;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <sstream>
 
 namespace granular {
 
@@ -11,7 +12,78 @@ double DrumScene::rotation_period() const { return 2.0 * M_PI / omega; }
 
 long DrumScene::steps_per(double rot) const { return std::lround(rot * rotation_period() / dt); }
 
-DrumScene read_drum_scene(SceneFile& f) {
+namespace {
+
+// Only the required keys: reading it lists every key a drum scene has.
+constexpr const char* kMinimalDrum = R"(
+[scene]
+kind = "drum"
+name = "minimal"
+[drum]
+length = 32.0
+diameter = 16.0
+omega = 0.5
+ends = "periodic"
+[particles]
+fill_density = 0.3
+big_diameter = 1.3
+initial_state = "mixed"
+[friction]
+gamma_s_bb = 1.0
+gamma_s_ss = 1.0
+gamma_s_bw = 1.0
+gamma_s_sw = 1.0
+[run]
+rotations = 1.0
+)";
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+// The initial lattice must hold the particles without overlap, inside the
+// wall, in a drum that has room for them (see drum_particles).
+void check_fits(const SceneFile& f, const DrumScene& s) {
+  const double d_max = std::max(s.small_diameter, s.big_diameter);
+  const std::string d_key = s.big_diameter >= s.small_diameter ? "particles.big_diameter" : "particles.small_diameter";
+  // Nearest fcc sites are a/sqrt(2) apart, a = (4/rho)^(1/3), or more once the
+  // lattice is stretched to the drum. Mixed: any site may hold either species;
+  // segregated: each region has the small spheres' volume fraction.
+  const double need = s.initial_state == "mixed" ? d_max : s.small_diameter;
+  const double spacing = std::cbrt(4.0 / s.fill_density) / std::sqrt(2.0);
+  if (spacing < need)
+    f.fail("particles.fill_density",
+           "cannot be packed: at " + num(s.fill_density) + " particles per unit volume the lattice sites are " +
+               num(spacing) + " apart, less than the particle diameter " + num(need) + " (" +
+               (need == d_max ? d_key : std::string("particles.small_diameter")) + ", " +
+               f.origin(need == d_max ? d_key : "particles.small_diameter") + "); at most " +
+               num(std::sqrt(2.0) / (need * need * need)) + " for these particles");
+  if (s.fill_margin >= 0.5 * s.diameter && f.origin("particles.fill_margin") != "default")
+    f.fail("particles.fill_margin", "leaves no room inside the drum (drum.diameter = " + num(s.diameter) + ", " +
+                                        f.origin("drum.diameter") + ")");
+  if (0.5 * s.diameter - s.fill_margin < 0.5 * d_max)
+    f.fail("drum.diameter", "too small for its particles: " + num(s.diameter) + " leaves no room for a diameter " +
+                                num(d_max) + " inside particles.fill_margin = " + num(s.fill_margin) + " (" +
+                                f.origin("particles.fill_margin") + ") of the wall");
+  if (s.fill_margin < 0.5 * d_max)
+    f.fail("particles.fill_margin", num(s.fill_margin) + " lets particles of diameter " + num(d_max) +
+                                        " start through the drum wall; it must be at least half the largest "
+                                        "diameter (" + num(0.5 * d_max) + ")");
+  const double reach = 2.0 * (std::pow(2.0, 1.0 / 6.0) * d_max + s.skin);
+  if (!s.capped && s.length < reach)
+    f.fail("drum.length", "a periodic drum must be at least twice the interaction range plus the neighbour skin "
+                          "long (" + num(reach) + "), got " + num(s.length));
+  const std::size_t n = drum_particles(s).size();
+  if (n < 2)
+    f.fail(s.capped && s.length < s.diameter ? "drum.length" : "drum.diameter",
+           "too small for its particles: the initial lattice (fill density " + num(s.fill_density) +
+               ") places " + std::to_string(n) + " particle(s) in a drum of diameter " + num(s.diameter) +
+               " and length " + num(s.length));
+}
+
+DrumScene read_fields(SceneFile& f) {
   DrumScene s;
   f.choice("scene.kind", {"drum"});
   s.name = f.text("scene.name");
@@ -65,7 +137,20 @@ DrumScene read_drum_scene(SceneFile& f) {
   f.text("paper.figure", "");
   f.text("paper.note", "");
 
-  if (s.fill_margin >= 0.5 * s.diameter) f.fail("particles.fill_margin", "leaves no room inside the drum");
+  check_fits(f, s);
+  return s;
+}
+
+}  // namespace
+
+DrumScene read_drum_scene(SceneFile& f) {
+  static const std::vector<std::string> known = [] {
+    SceneFile minimal = SceneFile::from_text(kMinimalDrum, "<built-in drum scene>");
+    read_fields(minimal);
+    return minimal.read_keys();
+  }();
+  f.reject_keys_outside(known);
+  DrumScene s = read_fields(f);
   f.reject_unknown_keys();
   return s;
 }

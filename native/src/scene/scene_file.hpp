@@ -1,8 +1,10 @@
 // Reading a scene file: a TOML table plus --set overrides, read through a
 // checked accessor. Every key read is recorded; keys never read are an error,
-// as is a wrong type or a value out of range. Errors name the file, the key
-// and the reason. Defaults are written back into the table, so the resolved
-// scene (file + overrides + defaults) can be printed and stored with the output.
+// as is a wrong type or a value out of range. Errors name the file, the line
+// of the key in the file (when the key is in the file), the key and the reason,
+// in one line (docs/errors.md). Defaults are written back into the table, so
+// the resolved scene (file + overrides + defaults) can be printed and stored
+// with the output.
 #pragma once
 #include <toml++/toml.h>
 
@@ -15,8 +17,12 @@ namespace granular {
 
 class SceneError : public std::runtime_error {
  public:
+  // "file:line: key: reason"; line 0 (a default, a --set override, a missing
+  // key) leaves the line out. `key` may carry a note such as " (--set)".
+  SceneError(const std::string& file, long line, const std::string& key, const std::string& reason);
   SceneError(const std::string& file, const std::string& key, const std::string& reason)
-      : std::runtime_error(file + ": key '" + key + "': " + reason) {}
+      : SceneError(file, 0, key, reason) {}
+  // An error about the file as a whole ("file: reason", or "file:line: reason").
   SceneError(const std::string& file, const std::string& reason) : std::runtime_error(file + ": " + reason) {}
 };
 
@@ -26,6 +32,8 @@ class SceneFile {
   // value is read as a TOML value (60, 0.5, "capped", true), or as a bare
   // string if it is not one.
   SceneFile(const std::string& path, const std::vector<std::string>& overrides);
+  // A scene from text (the built-in minimal scenes that list a kind's keys).
+  static SceneFile from_text(const std::string& text, const std::string& name);
 
   const std::string& path() const { return path_; }
 
@@ -42,19 +50,37 @@ class SceneFile {
   // A string value without marking the key as read (to choose the scene reader).
   std::string peek_text(const std::string& key) const;
 
+  // Where a key's value comes from, for messages that name a second key:
+  // "line 12", "--set" or "default".
+  std::string origin(const std::string& key) const;
+  // The key's line in the file, 0 when it is not there (default, --set, missing).
+  long line_of(const std::string& key) const;
+
   // Range checks that raise SceneError naming this file and key.
   double positive(const std::string& key, double v) const;
   double non_negative(const std::string& key, double v) const;
   [[noreturn]] void fail(const std::string& key, const std::string& reason) const;
 
-  // After every reader ran: any key present but never read is an error.
+  // After every reader ran: any key present but never read is an error, with
+  // the nearest key the reader knows as a suggestion.
   void reject_unknown_keys() const;
+  // Before reading: any key not in `known` (every key a reader of this scene
+  // kind reads) is an error, reported before a missing or invalid value, since
+  // a misspelt key often causes those.
+  void reject_keys_outside(const std::vector<std::string>& known) const;
+  // The keys read so far.
+  std::vector<std::string> read_keys() const;
 
   std::string resolved_toml() const;
   std::string resolved_json() const;
 
  private:
+  SceneFile() = default;
   const toml::node* find(const std::string& key) const;
+  [[noreturn]] void missing(const std::string& key) const;
+  // Fails for an unknown key; returns for an empty table of a known name.
+  void unknown(const std::string& key, const std::vector<std::string>& known) const;
+  std::vector<std::string> keys_in_order() const;  // file order, --set overrides first
   void set_default(const std::string& key, toml::node&& value);
   template <class T>
   void set_default_value(const std::string& key, T value);
@@ -62,6 +88,12 @@ class SceneFile {
   std::string path_;
   toml::table table_;
   std::set<std::string> used_;
+  std::set<std::string> overridden_;  // keys set by --set (their source is not the file)
+  std::set<std::string> defaulted_;   // keys absent from the file, given their default
 };
+
+// The closest of `candidates` to `word` (case-insensitive edit distance, with
+// transpositions), or "" when none is close enough to be a likely misspelling.
+std::string did_you_mean(const std::string& word, const std::vector<std::string>& candidates);
 
 }  // namespace granular
