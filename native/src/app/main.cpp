@@ -1,10 +1,12 @@
 // granular: the native engine's command-line program.
-//   granular run SCENE [-o OUT.h5] [--set key=value]... [--threads N]
-//   granular init SCENE [-o INIT.h5] [--set key=value]...
+//   granular run SCENE [-o OUT.h5] [--force] [--set key=value]... [--threads N]
+//   granular init SCENE [-o INIT.h5] [--force] [--set key=value]...
 //   granular info SCENE [--set key=value]... [--json]
 //   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S]
 // SCENE is a drum (Rapaport 2002) or shaken-box (Poeschel and Herrmann 1995)
-// scene file; its scene.kind picks the model.
+// scene file; its scene.kind picks the model. Exit status (docs/errors.md):
+// 0 done, 2 refused before anything ran (bad scene, bad command line, existing
+// output without --force), 3 unstable run, 1 any other failure.
 #include <omp.h>
 #include <unistd.h>
 
@@ -26,6 +28,23 @@ using namespace granular;
 
 namespace {
 
+// A command line that cannot be honoured (exit 2, nothing written).
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// The output must not exist (unless --force) and its directory must: checked
+// after the scene is read and before anything is written.
+void check_output(const std::string& out, bool force) {
+  namespace fs = std::filesystem;
+  const fs::path p(out);
+  if (fs::is_directory(p)) throw UsageError(out + ": output is a directory");
+  if (fs::exists(p) && !force)
+    throw UsageError(out + ": output file exists; pass --force to overwrite it (it was left untouched)");
+  const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  if (!fs::is_directory(dir)) throw UsageError(out + ": output directory " + dir.string() + " does not exist");
+}
+
 struct Loaded {
   std::string kind;
   std::optional<DrumScene> drum;
@@ -43,8 +62,11 @@ Loaded load(const std::string& path, const std::vector<std::string>& sets) {
     l.drum = read_drum_scene(f);
   else if (l.kind == "shaken_box")
     l.box = read_box_scene(f);
-  else
-    f.fail("scene.kind", "is \"" + l.kind + "\"; allowed: \"drum\", \"shaken_box\"");
+  else {
+    const std::string guess = did_you_mean(l.kind, {"drum", "shaken_box"});
+    f.fail("scene.kind", "unknown value \"" + l.kind + "\"" + (guess.empty() ? "" : "; did you mean \"" + guess + "\"?") +
+                             " (allowed: \"drum\", \"shaken_box\")");
+  }
   l.toml = f.resolved_toml();
   l.json = f.resolved_json();
   return l;
@@ -151,8 +173,9 @@ void common_attrs(H5Output& out, const Loaded& l, const std::string& scene_path)
   out.attr("threads", static_cast<std::int64_t>(omp_get_max_threads()));
 }
 
-int run_scene(const Loaded& l, const std::string& scene_path, std::string out_path, bool quiet) {
+int run_scene(const Loaded& l, const std::string& scene_path, std::string out_path, bool quiet, bool force) {
   if (out_path.empty()) out_path = l.name() + ".h5";
+  check_output(out_path, force);
   const bool progress = !quiet && isatty(fileno(stderr));
   RunReport r;
   if (l.drum) {
@@ -204,8 +227,9 @@ void write_initial(H5Output& out, const Sim& sim) {
     out.series(h, {{static_cast<double>(sim.p.id[i])}, {1.0 / sim.p.inv_m[i]}, {1.0 / sim.p.inv_i[i]}});
 }
 
-int init_scene(const Loaded& l, const std::string& scene_path, std::string out_path) {
+int init_scene(const Loaded& l, const std::string& scene_path, std::string out_path, bool force) {
   if (out_path.empty()) out_path = l.name() + "_init.h5";
+  check_output(out_path, force);
   const int dim = l.drum ? 3 : 2;
   auto emit = [&](auto& sim) {
     H5Output out(out_path, dim, static_cast<std::int64_t>(sim.p.size()));
@@ -247,9 +271,11 @@ int main(int argc, char** argv) {
   std::string scene_path, out_path;
   std::vector<std::string> sets;
   int threads = 0;
+  bool force = false;
   auto* run = app.add_subcommand("run", "run a scene and write HDF5 output");
   run->add_option("scene", scene_path, "scene file (TOML)")->required();
   run->add_option("-o,--output", out_path, "output HDF5 file (default: the scene name + .h5)");
+  run->add_flag("--force", force, "overwrite the output file if it exists");
   run->add_option("--set", sets, "override a scene key: key=value (repeatable)");
   run->add_option("--threads", threads, "OpenMP threads (default: all cores)")->check(CLI::PositiveNumber);
   bool quiet = false;
@@ -258,6 +284,7 @@ int main(int argc, char** argv) {
   auto* init = app.add_subcommand("init", "write the initial state (one frame, masses, inertia) for another engine");
   init->add_option("scene", scene_path, "scene file (TOML)")->required();
   init->add_option("-o,--output", out_path, "output HDF5 file (default: the scene name + _init.h5)");
+  init->add_flag("--force", force, "overwrite the output file if it exists");
   init->add_option("--set", sets, "override a scene key: key=value (repeatable)");
 
   bool as_json = false;
@@ -281,7 +308,11 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   bench->add_flag("--json", bench_json, "print JSON");
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help, --version: 0; a bad command line: 2
+  }
 
   try {
     if (*info) {
@@ -293,11 +324,11 @@ int main(int argc, char** argv) {
         std::cout << l.toml << "\n# particles: " << j["derived"]["particles"] << "\n";
       return 0;
     }
-    if (*init) return init_scene(load(scene_path, sets), scene_path, out_path);
+    if (*init) return init_scene(load(scene_path, sets), scene_path, out_path, force);
     if (*run) {
       if (threads > 0) omp_set_num_threads(threads);
       const Loaded l = load(scene_path, sets);  // all validation happens before the output is touched
-      return run_scene(l, scene_path, out_path, quiet);
+      return run_scene(l, scene_path, out_path, quiet, force);
     }
     if (*bench) {
       const Loaded l = load(scene_path, sets);
@@ -336,6 +367,9 @@ int main(int argc, char** argv) {
       return 0;
     }
   } catch (const SceneError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const UsageError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   } catch (const UnstableError& e) {
