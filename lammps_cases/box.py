@@ -25,9 +25,13 @@ def refuse_unrepresentable(ini):
     s = ini.scene
     sh, c = s["shaking"], s.get("contact", {})
     if float(sh.get("ramp_time", 0.0)) > 0.0 and float(sh.get("ramp_to", sh["frequency"])) != float(sh["frequency"]):
-        raise SceneRefused("shaking.ramp_to/ramp_time: the frequency ramp is not set up in the LAMMPS case")
+        raise SceneRefused(f"{sh['ramp_to']} (with shaking.ramp_time): the frequency ramp is not set up in the "
+                           "LAMMPS case", key="shaking.ramp_to")
+    if c.get("law", "poeschel_herrmann") != "poeschel_herrmann":
+        raise SceneRefused(f"\"{c['law']}\": the LAMMPS box runs gran/hooke, Poeschel & Herrmann's law, only",
+                           key="contact.law")
     if c.get("damping", "normal") != "normal":
-        raise SceneRefused("contact.damping = \"literal\": gran/hooke damps the normal relative velocity only")
+        raise SceneRefused("\"literal\": gran/hooke damps the normal relative velocity only", key="contact.damping")
 
 
 def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):

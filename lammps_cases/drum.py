@@ -24,9 +24,9 @@ def refuse_unrepresentable(ini):
     s = ini.scene
     c = s.get("contact", {})
     if abs(float(c.get("kappa", 0.2)) - 0.2) > 1e-12:
-        raise SceneRefused(f"contact.kappa = {c['kappa']}: LAMMPS's spheres have I = 2/5 m r^2 (kappa = 0.2)")
+        raise SceneRefused(f"{c['kappa']}: LAMMPS's spheres have I = 2/5 m r^2 (kappa = 0.2)", key="contact.kappa")
     if s.get("integrator", {}).get("kind", "leapfrog") != "leapfrog":
-        raise SceneRefused("integrator.kind: LAMMPS runs velocity Verlet (fix nve/sphere) only")
+        raise SceneRefused("LAMMPS runs velocity Verlet (fix nve/sphere) only", key="integrator.kind")
 
 
 def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):

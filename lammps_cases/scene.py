@@ -19,7 +19,46 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 class SceneRefused(Exception):
-    """The scene cannot be represented in this engine; the message says why."""
+    """The scene cannot be represented in this engine; the message says why.
+    `key` (dotted) is the scene key at fault, if one is."""
+
+    def __init__(self, reason: str, key: str | None = None):
+        super().__init__(reason)
+        self.reason, self.key = reason, key
+
+
+def key_line(scene_path, key: str) -> int:
+    """The line of a dotted key in a scene file (0 if it is not there): table
+    headers and `name = value` lines, dotted names included, as in our scenes."""
+    table, want = "", key.split(".")
+    try:
+        text = Path(scene_path).read_text()
+    except OSError:
+        return 0
+    for number, raw in enumerate(text.splitlines(), 1):
+        line = raw.split("#", 1)[0].strip()
+        if line.startswith("[") and not line.startswith("[["):
+            table = line.strip("[] ")
+            continue
+        if "=" in line:
+            name = line.split("=", 1)[0].strip()
+            full = [p.strip().strip('"') for p in (table.split(".") if table else []) + name.split(".")]
+            if full == want:
+                return number
+    return 0
+
+
+def refusal_message(exc: SceneRefused, scene_path, sets=()) -> str:
+    """One line, as the native engine words its errors (docs/errors.md):
+    FILE:LINE: KEY: REASON, FILE: KEY (--set): REASON, or FILE: REASON."""
+    scene = str(scene_path)
+    if exc.key is None:
+        text = str(exc)
+        return text if text.startswith(scene + ":") else f"{scene}: {text}"
+    if any(s.split("=", 1)[0].strip() == exc.key for s in sets):
+        return f"{scene}: {exc.key} (--set): {exc.reason}"
+    line = key_line(scene_path, exc.key)
+    return f"{scene}{f':{line}' if line else ''}: {exc.key}: {exc.reason}"
 
 
 def granular_binary() -> str:
@@ -54,8 +93,10 @@ def load_initial(scene_path, sets=(), extra_sets=()) -> Initial:
         for s in list(sets) + list(extra_sets):
             cmd += ["--set", s]
         res = subprocess.run(cmd, capture_output=True, text=True)
-        if res.returncode != 0:
-            raise SceneRefused(res.stderr.strip() or f"granular init failed ({res.returncode})")
+        if res.returncode != 0:  # the native engine's message names the file, the key and the line
+            lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+            text = "\n".join(ln.removeprefix("error: ") for ln in lines)
+            raise SceneRefused(text or f"granular init failed ({res.returncode})")
         with h5py.File(out, "r") as h:
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h.attrs.items()}
             f = h["frames"]

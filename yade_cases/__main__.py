@@ -17,7 +17,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from lammps_cases.scene import ROOT, SceneRefused, is_drum, load_initial
+from lammps_cases.scene import ROOT, SceneRefused, is_drum, load_initial, refusal_message
 
 from .common import write_workdir
 
@@ -25,26 +25,26 @@ HERE = Path(__file__).resolve().parent
 
 
 def refuse_unrepresentable(ini) -> None:
-    """Raises SceneRefused for what YADE's cases cannot represent."""
+    """Raises SceneRefused, naming the key, for what YADE's cases cannot represent."""
     s = ini.scene
     if ini.kind == "drum":
         kind = s.get("integrator", {}).get("kind", "leapfrog")
         if kind != "leapfrog":
-            raise SceneRefused(f"integrator.kind = {kind!r}: YADE runs its leapfrog (NewtonIntegrator) only")
+            raise SceneRefused(f"\"{kind}\": YADE runs its leapfrog (NewtonIntegrator) only", key="integrator.kind")
         if s.get("contact", {}).get("law", "linear") != "linear":
-            raise SceneRefused("contact.law: YADE runs the linear law (mapped from Rapaport's) only")
+            raise SceneRefused("YADE runs the linear law (mapped from Rapaport's) only", key="contact.law")
     elif ini.kind == "shaken_box":
         c = s.get("contact", {})
         if c.get("damping", "normal") != "normal":
-            raise SceneRefused("contact.damping = \"literal\": YADE's ViscElPhys damps the normal relative "
-                               "velocity only")
+            raise SceneRefused("\"literal\": YADE's ViscElPhys damps the normal relative velocity only",
+                               key="contact.damping")
         if c.get("law", "poeschel_herrmann") != "poeschel_herrmann":
-            raise SceneRefused(f"contact.law = {c.get('law')!r}: not set up in the YADE box case")
+            raise SceneRefused(f"\"{c.get('law')}\": not set up in the YADE box case", key="contact.law")
         kind = s.get("integrator", {}).get("kind", "gear")
         if kind not in ("gear", "verlet"):
-            raise SceneRefused(f"integrator.kind = {kind!r}: unknown")
+            raise SceneRefused(f"\"{kind}\": unknown", key="integrator.kind")
     else:
-        raise SceneRefused(f"scene.kind = {ini.kind!r}: no YADE case")
+        raise SceneRefused(f"\"{ini.kind}\": no YADE case", key="scene.kind")
 
 
 def main(argv=None):
@@ -68,7 +68,8 @@ def main(argv=None):
 
     out = Path(args.output)
     if out.exists() and not args.force:
-        print(f"yade_cases: error: {out} exists (use --force to overwrite)", file=sys.stderr)
+        print(f"yade_cases: error: {out}: output file exists; pass --force to overwrite it (it was left untouched)",
+              file=sys.stderr)
         return 2
     yade = shutil.which("yade")
     if yade is None:
@@ -79,7 +80,7 @@ def main(argv=None):
         ini = load_initial(args.scene, args.set, extra_sets=["contact.law=linear"] if drum else [])
         refuse_unrepresentable(ini)
     except SceneRefused as exc:
-        print(f"yade_cases: error: {args.scene}: {exc}", file=sys.stderr)
+        print(f"yade_cases: error: {refusal_message(exc, args.scene, args.set)}", file=sys.stderr)
         return 2
 
     out = out.resolve()  # yade runs from the repository root
