@@ -1,0 +1,245 @@
+"""Bad input is refused before anything is written: every scene in
+tests/bad_scenes/ gives exit status 2 and one line naming the file, the key
+(with its line in the file, when the key is there) and the reason; an existing
+output file is never replaced without --force. The LAMMPS and YADE drivers
+refuse what they cannot represent in the same words (tests/bad_scenes/lammps/,
+tests/bad_scenes/yade/). docs/errors.md describes the messages.
+
+Each catalogue file starts with `# expect: KEY | FRAGMENT`: the key the message
+must name (`-` for a file that is not TOML; its faulty line carries `# <- here`)
+and a fragment of the reason."""
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+BIN = Path(os.environ.get("GRANULAR_BIN", ROOT / "build" / "granular"))
+CATALOGUE = ROOT / "tests" / "bad_scenes"
+NATIVE = sorted(CATALOGUE.glob("*.toml"))
+LAMMPS = sorted((CATALOGUE / "lammps").glob("*.toml"))
+YADE = sorted((CATALOGUE / "yade").glob("*.toml"))
+BOX = ROOT / "scenes" / "box" / "f3.0_big.toml"
+
+pytestmark = pytest.mark.skipif(not BIN.exists(), reason=f"{BIN} not built")
+
+
+def granular(*args, cwd=ROOT):
+    return subprocess.run([str(BIN), *map(str, args)], capture_output=True, text=True, timeout=600, cwd=cwd)
+
+
+def expectation(path):
+    m = re.match(r"# expect: (\S+) \| (.+)$", path.read_text().splitlines()[0])
+    assert m, f"{path}: the first line must be '# expect: KEY | FRAGMENT'"
+    return m.group(1), m.group(2).strip()
+
+
+def line_of(path, key):
+    """The key's line, read independently of the engine: table headers and
+    `name = value` lines; a syntax error's line is marked `# <- here`."""
+    table = ""
+    for number, raw in enumerate(path.read_text().splitlines(), 1):
+        if key == "-":
+            if "# <- here" in raw:
+                return number
+            continue
+        text = raw.split("#", 1)[0].strip()
+        if text.startswith("["):
+            table = text.strip("[] ")
+        elif "=" in text:
+            name = text.split("=", 1)[0].strip()
+            if (f"{table}.{name}" if table else name) == key:
+                return number
+    return 0
+
+
+def check_message(stderr, scene, key, fragment, prefix):
+    """One line: PREFIX FILE:LINE: KEY: REASON (FILE: KEY: ... when the key is not in the file)."""
+    lines = [ln for ln in stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, f"expected one line of error, got:\n{stderr}"
+    msg = lines[0]
+    line = line_of(ROOT / scene, key)
+    head = f"{prefix}{scene}:{line}: " if line else f"{prefix}{scene}: "
+    assert msg.startswith(head), f"{msg!r} does not start with {head!r}"
+    rest = msg[len(head):]
+    if key == "-":
+        assert line, f"{scene}: mark the faulty line with '# <- here'"
+    else:
+        assert rest.startswith(f"{key}: "), f"{msg!r} does not name {key} after the file"
+    assert fragment in rest, f"{msg!r} lacks {fragment!r}"
+    return msg
+
+
+def test_catalogue_has_every_kind_of_fault():
+    assert len(NATIVE) >= 30
+    assert {p.name.split("_")[0] for p in NATIVE} == {"drum", "box"}
+    assert LAMMPS and YADE
+    for path in NATIVE + LAMMPS + YADE:
+        expectation(path)
+
+
+@pytest.mark.parametrize("command", ["run", "init"])
+@pytest.mark.parametrize("scene", NATIVE, ids=lambda p: p.stem)
+def test_bad_scene_is_refused_with_one_message_and_no_output(scene, command, tmp_path):
+    key, fragment = expectation(scene)
+    rel = scene.relative_to(ROOT)
+    r = granular(command, rel, "-o", tmp_path / "out.h5")
+    assert r.returncode == 2, r.stderr
+    check_message(r.stderr, rel, key, fragment, "error: ")
+    assert r.stdout == ""
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_info_refuses_the_same_way(tmp_path):
+    scene = (CATALOGUE / "drum_unknown_key_skn.toml").relative_to(ROOT)
+    r = granular("info", scene, "--json")
+    assert r.returncode == 2
+    check_message(r.stderr, scene, "neighbor.skn", "did you mean neighbor.skin?", "error: ")
+
+
+def test_set_override_is_named_as_such_without_a_line():
+    r = granular("info", "scenes/drum/A.toml", "--set", "neighbor.skn=0.4")
+    assert r.returncode == 2
+    assert r.stderr.strip() == ("error: scenes/drum/A.toml: neighbor.skn (--set): unknown key; "
+                                "did you mean neighbor.skin?")
+    r = granular("info", "scenes/drum/A.toml", "--set", "drum.diameter=-3")
+    assert r.returncode == 2
+    assert r.stderr.strip() == "error: scenes/drum/A.toml: drum.diameter (--set): must be > 0, got -3"
+
+
+def test_a_value_overridden_by_set_is_judged_not_the_file_one():
+    scene = (CATALOGUE / "drum_negative_dt.toml").relative_to(ROOT)
+    r = granular("info", scene, "--set", "integrator.dt=0.005")
+    assert r.returncode == 0, r.stderr
+
+
+def test_driver_catalogue_scenes_are_valid_native_scenes():
+    """The drivers' entries are refused by the driver, not by the scene reader."""
+    for scene in LAMMPS + YADE:
+        r = granular("info", scene)
+        assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.parametrize("command", ["run", "init"])
+def test_existing_output_is_byte_identical_after_a_refused_run(command, tmp_path):
+    out = tmp_path / "earlier.h5"
+    earlier = os.urandom(4096)
+    out.write_bytes(earlier)
+    # a bad scene
+    r = granular(command, (CATALOGUE / "drum_fill_cannot_be_packed.toml").relative_to(ROOT), "-o", out)
+    assert r.returncode == 2
+    assert out.read_bytes() == earlier
+    # a good scene, without --force
+    r = granular(command, BOX, "-o", out, "--set", "run.settle=0.001", "--set", "run.duration=0")
+    assert r.returncode == 2
+    assert len(r.stderr.strip().splitlines()) == 1
+    assert str(out) in r.stderr and "pass --force" in r.stderr
+    assert out.read_bytes() == earlier
+    # a bad scene with --force: still refused before the file is touched
+    r = granular(command, (CATALOGUE / "box_zero_dt.toml").relative_to(ROOT), "-o", out, "--force")
+    assert r.returncode == 2
+    assert out.read_bytes() == earlier
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["earlier.h5"]
+
+
+@pytest.mark.parametrize("command", ["run", "init"])
+def test_force_overwrites(command, tmp_path):
+    import h5py
+    out = tmp_path / "earlier.h5"
+    out.write_bytes(b"results of an earlier run")
+    r = granular(command, BOX, "-o", out, "--force", "--set", "run.settle=0.001", "--set", "run.duration=0",
+                 *(["-q", "--threads", "1"] if command == "run" else []))
+    assert r.returncode == 0, r.stderr
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["scene_name"] == "f3.0_big"
+        assert h5["frames/time"].shape[0] >= 1
+
+
+def test_default_output_name_is_guarded_too(tmp_path):
+    """Without -o the output is NAME.h5 (run) or NAME_init.h5 (init) in the working directory."""
+    for command, name in (("run", "f3.0_big.h5"), ("init", "f3.0_big_init.h5")):
+        (tmp_path / name).write_bytes(b"keep")
+        r = granular(command, BOX, "--set", "run.settle=0.001", "--set", "run.duration=0", cwd=tmp_path)
+        assert r.returncode == 2 and name in r.stderr and "--force" in r.stderr
+        assert (tmp_path / name).read_bytes() == b"keep"
+
+
+def test_missing_output_directory_is_refused_before_running(tmp_path):
+    r = granular("run", BOX, "-o", tmp_path / "no" / "such" / "dir.h5")
+    assert r.returncode == 2 and "does not exist" in r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_command_line_exits_2():
+    assert granular("run").returncode == 2
+    assert granular("run", BOX, "--threads", "0").returncode == 2
+    assert granular("--version").returncode == 0
+
+
+# --- the LAMMPS and YADE drivers
+
+
+def driver(module, scene, out, *extra):
+    env = dict(os.environ, GRANULAR_BIN=str(BIN), PYTHONPATH=str(ROOT))
+    return subprocess.run(["/usr/bin/python3", "-m", module, "run", str(scene), "-o", str(out), "-q", *extra],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+
+
+def has_lammps():
+    return subprocess.run(["/usr/bin/python3", "-c", "import lammps"], capture_output=True).returncode == 0
+
+
+needs_lammps = pytest.mark.skipif(not has_lammps(), reason="LAMMPS Python module missing")
+needs_yade = pytest.mark.skipif(shutil.which("yade") is None, reason="yade not on PATH")
+
+
+def check_driver_refusal(module, scene, tmp_path, *extra):
+    key, fragment = expectation(scene)
+    rel = scene.relative_to(ROOT)
+    out = tmp_path / "out.h5"
+    r = driver(module, rel, out, *extra)
+    assert r.returncode == 2, r.stderr
+    check_message(r.stderr, rel, key, fragment, f"{module}: error: ")
+    assert list(tmp_path.iterdir()) == []  # no output, no YADE work directory
+
+
+@needs_lammps
+@pytest.mark.parametrize("scene", LAMMPS, ids=lambda p: p.stem)
+def test_lammps_refuses_what_it_cannot_represent(scene, tmp_path):
+    check_driver_refusal("lammps_cases", scene, tmp_path)
+
+
+@needs_yade
+@pytest.mark.parametrize("scene", YADE, ids=lambda p: p.stem)
+def test_yade_refuses_what_it_cannot_represent(scene, tmp_path):
+    check_driver_refusal("yade_cases", scene, tmp_path)
+
+
+@pytest.mark.parametrize("module", [pytest.param("lammps_cases", marks=needs_lammps),
+                                    pytest.param("yade_cases", marks=needs_yade)])
+@pytest.mark.parametrize("name", ["drum_misspelt_required_key", "box_big_disk_larger_than_box", "drum_syntax_error"])
+def test_drivers_pass_on_the_native_message(module, name, tmp_path):
+    """A scene the engine refuses: the driver's one line is the engine's message."""
+    check_driver_refusal(module, CATALOGUE / f"{name}.toml", tmp_path)
+
+
+@needs_lammps
+def test_lammps_refusal_of_a_set_override_says_so(tmp_path):
+    r = driver("lammps_cases", "scenes/box/f3.0_big.toml", tmp_path / "out.h5", "--set", "contact.law=viscel")
+    assert r.returncode == 2
+    assert r.stderr.strip().startswith("lammps_cases: error: scenes/box/f3.0_big.toml: contact.law (--set): ")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("module", [pytest.param("lammps_cases", marks=needs_lammps),
+                                    pytest.param("yade_cases", marks=needs_yade)])
+def test_drivers_keep_an_existing_output(module, tmp_path):
+    out = tmp_path / "earlier.h5"
+    out.write_bytes(b"keep")
+    r = driver(module, BOX.relative_to(ROOT), out)
+    assert r.returncode == 2 and str(out) in r.stderr and "--force" in r.stderr
+    assert out.read_bytes() == b"keep"
