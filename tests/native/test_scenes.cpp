@@ -139,6 +139,32 @@ TEST(Scenes, ErrorsNameFileKeyAndReason) {
   EXPECT_NE(syntax.find("not a valid TOML file"), std::string::npos);
 }
 
+TEST(Scenes, ErrorsGiveTheLineAndTheNearestKey) {
+  const std::string path = (fs::temp_directory_path() / "granular_scene_test.toml").string();
+  // kMinimal opens with a newline: [neighbor] lands on line 21, skn on 22.
+  EXPECT_EQ(error_of(std::string(kMinimal) + "[neighbor]\nskn = 0.3\n"),
+            path + ":22: neighbor.skn: unknown key; did you mean neighbor.skin?");
+  EXPECT_EQ(error_of(kMinimal, {"neighbor.skn=0.3"}),
+            path + ": neighbor.skn (--set): unknown key; did you mean neighbor.skin?");
+  // a misspelt required key is reported as misspelt, not as missing
+  std::string text = kMinimal;
+  text.replace(text.find("diameter = 10.0"), 8, "diamter");
+  EXPECT_EQ(error_of(text), path + ":7: drum.diamter: unknown key; did you mean drum.diameter?");
+  EXPECT_EQ(error_of(kMinimal, {"drum.length=0"}), path + ": drum.length (--set): must be > 0, got 0");
+  EXPECT_EQ(did_you_mean("skn", {"skin", "dt"}), "skin");
+  EXPECT_EQ(did_you_mean("neighbour.skin", {"neighbor.skin", "drum.length"}), "neighbor.skin");
+  EXPECT_EQ(did_you_mean("drum.skin", {"neighbor.skin", "drum.length"}), "neighbor.skin");
+  EXPECT_EQ(did_you_mean("rapaprot", {"rapaport", "linear", "viscel"}), "rapaport");
+  EXPECT_EQ(did_you_mean("colour", {"rapaport", "linear", "viscel"}), "");
+}
+
+TEST(Scenes, ParticlesThatCannotBePlacedAreRefused) {
+  EXPECT_NE(error_of(kMinimal, {"particles.fill_density=0.9"}).find("cannot be packed"), std::string::npos);
+  EXPECT_EQ(error_of(kMinimal, {"particles.fill_density=0.64"}), "");  // just below sqrt(2)/1.3^3
+  EXPECT_NE(error_of(kMinimal, {"drum.diameter=3.5"}).find("too small for its particles"), std::string::npos);
+  EXPECT_NE(error_of(kMinimal, {"particles.fill_margin=0.5"}).find("through the drum wall"), std::string::npos);
+}
+
 // ---- shaken box ----------------------------------------------------------
 
 #include "integrate/motion.hpp"
