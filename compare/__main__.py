@@ -102,7 +102,20 @@ def main(argv=None):
                     help="ramp: depth-averaged Phi (particles/cycle) above which convection counts as on")
     br.add_argument("--window", type=int, default=10, help="ramp: cycles per window")
     br.add_argument("-o", "--output", required=True, help="directory for the PNGs and box_report.json")
+    va = sub.add_parser("validate", help="run the engines on a suite of scenes and write the agreement report")
+    va.add_argument("--suite", choices=["quick", "full"], required=True)
+    va.add_argument("-o", "--output", required=True, help="directory: runs/ (the cache), report.json, report.html")
+    va.add_argument("--lanes", type=int, default=2, help="runs at a time (each engine on one thread)")
+    va.add_argument("--rows", default=None,
+                    help="comma-separated subset of rows (native-paper, native-linear, lammps, native-viscel, yade)")
     args = parser.parse_args(argv)
+
+    if args.command == "validate":
+        from .validate import validate
+        rep = validate(args.suite, args.output, lanes=args.lanes,
+                       rows=args.rows.split(",") if args.rows else None,
+                       log=lambda m: print(m, file=sys.stderr, flush=True))
+        return 0 if rep["verdict"] == "pass" else 1
 
     if args.command == "box-report":
         from .box_report import box_report, summary_markdown

@@ -11,7 +11,8 @@ run_one() {
   out="$1"; shift; scene="$1"; shift
   [ -e "$out.done" ] && exit 0
   mkdir -p "$(dirname "$out")"
-  if nice -n 10 "$here/build/granular" run "$scene" -o "$out" --threads 1 -q "$@" >"${out%.h5}.log" 2>&1; then
+  # --force: a leftover from an interrupted attempt (no .done) is replaced
+  if nice -n 10 "$here/build/granular" run "$scene" -o "$out" --force --threads 1 -q "$@" >"${out%.h5}.log" 2>&1; then
     touch "$out.done"
   else
     echo "failed: $out (see ${out%.h5}.log)" >&2

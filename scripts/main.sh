@@ -5,5 +5,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 mkdir -p out
-./build/granular run scenes/drum/A.toml --set run.rotations=60 -o out/A.h5
+./build/granular run scenes/drum/A.toml --set run.rotations=60 -o out/A.h5 --force
 /usr/bin/python3 -m compare quicklook out/A.h5 -o out/A_spacetime.png

@@ -98,7 +98,9 @@ def build(case, ini):
     if capped:
         rings = 1
     else:
-        rings = max(2, int(math.ceil(length / 32.0)))  # a facet at most half the period long (ENGINES.md)
+        # a facet strictly shorter than half the period (ENGINES.md: YADE refuses a body spanning
+        # half the periodic cell or more), so at least three rings
+        rings = max(3, int(math.ceil(length / 32.0)))
     ring_len = (lc if capped else length) / rings
     to_y = Quaternion(Vector3(1, 0, 0), -math.pi / 2)  # facetCylinder's axis is z: turn it to y
     facet_ids = []

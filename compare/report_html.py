@@ -1,0 +1,229 @@
+"""The validation report as a static HTML page with its PNGs (compare validate).
+
+Everything shown comes from the report dict that compare/validate.py also
+writes as report.json. The page needs no server and no network: open
+DIR/report.html in a browser. A small script at the end marks the body with
+the number of images that loaded (data-images-loaded), which the browser test
+reads back.
+"""
+from __future__ import annotations
+
+import html
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROW_COLOURS = {"native-paper": "C0", "native-linear": "C1", "native-verlet": "C1", "lammps": "C2",
+               "native-viscel": "C3", "yade": "C4"}
+
+
+def _fig(w, h):
+    from matplotlib.figure import Figure
+    return Figure(figsize=(w, h), layout="constrained")
+
+
+def _fmt(x, digits=3):
+    if x is None:
+        return "–"
+    if isinstance(x, float):
+        return f"{x:.{digits}g}"
+    return str(x)
+
+
+def _ok_runs(r):
+    return [x for x in r["runs"] if x["ok"]]
+
+
+def drum_figures(name, case, outdir):
+    from .reader import read_run
+    from .spacetime import SpaceTime
+    written = []
+    for vname, rows in case["variants"].items():
+        names = [r for r in rows if _ok_runs(rows[r])]
+        if not names:
+            continue
+        fig = _fig(3.2 * len(names), 3.2)
+        axes = fig.subplots(1, len(names), squeeze=False)[0]
+        for ax, row in zip(axes, names):
+            run = _ok_runs(rows[row])[0]
+            SpaceTime().compute(read_run(run["path"])).plot(ax)
+            ax.set_title(f"{row}, seed {run['seed']}", fontsize=9)
+        written.append(outdir / f"{name}_spacetime.png")
+        fig.savefig(written[-1], dpi=90)
+
+        fig = _fig(6, 4)
+        ax = fig.add_subplot()
+        for row in names:
+            runs = [x for x in _ok_runs(rows[row]) if x.get("surface_x")]
+            if not runs:
+                continue
+            x = np.asarray(runs[0]["surface_x"], float)
+            hs = [np.asarray(r["surface_height"], float) for r in runs if len(r["surface_height"]) == len(x)]
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # cells empty in every seed stay NaN
+                h = np.nanmean(hs, axis=0)
+            ax.plot(x, h, color=ROW_COLOURS.get(row), label=f"{row} ({len(hs)} seeds)")
+        ax.set_xlabel("position across the drum")
+        ax.set_ylabel("free-surface height")
+        ax.legend(fontsize=8)
+        ax.set_title(f"{name}: surface profiles, mean over seeds")
+        written.append(outdir / f"{name}_surface.png")
+        fig.savefig(written[-1], dpi=100)
+    return written
+
+
+def box_figures(name, case, outdir):
+    written = []
+    variants = case["variants"]
+    top = max(variants, key=lambda v: float(v.rstrip("Hz")))
+    rows = variants[top]
+    fig = _fig(6, 4.5)
+    ax = fig.add_subplot()
+    for row, r in rows.items():
+        runs = [x for x in _ok_runs(r) if x.get("phi") is not None]
+        if not runs:
+            continue
+        phi = np.nanmean([np.asarray(x["phi"], float) for x in runs], axis=0)
+        ax.plot(phi, runs[0]["phi_heights"], color=ROW_COLOURS.get(row), label=f"{row} ({len(runs)} packings)")
+    ax.axvline(0, color="0.6", lw=0.8)
+    ax.set_xlabel("Φ(D), grains per cycle (centre up minus walls)")
+    ax.set_ylabel("height D above the floor (cm)")
+    ax.set_title(f"{name} at {top}: convective flux")
+    ax.legend(fontsize=8)
+    written.append(outdir / f"{name}_phi.png")
+    fig.savefig(written[-1], dpi=100)
+
+    fig = _fig(6, 4)
+    ax = fig.add_subplot()
+    for row, r in rows.items():
+        for k, x in enumerate(_ok_runs(r)):
+            if x.get("height_t"):
+                ax.plot(x["height_t"], x["height"], color=ROW_COLOURS.get(row), lw=0.8,
+                        label=row if k == 0 else None)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("big disk's height above the floor (cm)")
+    ax.set_title(f"{name} at {top}: big disk, every packing")
+    ax.legend(fontsize=8)
+    written.append(outdir / f"{name}_height.png")
+    fig.savefig(written[-1], dpi=100)
+
+    fig = _fig(6, 4)
+    ax = fig.add_subplot()
+    freqs = sorted(variants, key=lambda v: float(v.rstrip("Hz")))
+    for j, row in enumerate(rows):
+        f, p, lo, hi = [], [], [], []
+        for v in freqs:
+            c = variants[v].get(row, {}).get("convection")
+            if c:
+                f.append(float(v.rstrip("Hz")) + 0.01 * (j - 2))
+                p.append(c["fraction"])
+                lo.append(c["fraction"] - c["ci95"][0])
+                hi.append(c["ci95"][1] - c["fraction"])
+        ax.errorbar(f, p, yerr=[lo, hi], marker="o", capsize=3, color=ROW_COLOURS.get(row), label=row)
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("fraction of packings convecting (95% interval)")
+    ax.set_ylim(-0.05, 1.05)
+    ax.legend(fontsize=8)
+    ax.set_title(f"{name}: convection onset")
+    written.append(outdir / f"{name}_threshold.png")
+    fig.savefig(written[-1], dpi=100)
+    return written
+
+
+def write_report(report, outdir):
+    outdir = Path(outdir)
+    figs = {}
+    for name, case in report["cases"].items():
+        try:
+            figs[name] = (drum_figures if case["kind"] == "drum" else box_figures)(name, case, outdir)
+        except Exception as e:  # a missing figure must not lose the report's numbers
+            figs[name] = []
+            case.setdefault("figure_errors", []).append(str(e))
+    esc = html.escape
+    out = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
+           f"<title>Validation report: suite {esc(report['suite'])}</title>",
+           "<style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em}"
+           "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:3px 8px;font-size:90%}"
+           "th{background:#eee}.pass{background:#d8f0d8}.fail{background:#f6d0d0}.info{background:#f4f0d8}"
+           "img{max-width:100%;border:1px solid #ddd;margin:4px 0}</style></head><body>"]
+    verdict = report["verdict"]
+    out.append(f"<h1>Validation report: suite <code>{esc(report['suite'])}</code></h1>")
+    out.append(f"<p id='verdict' class='{'pass' if verdict == 'pass' else 'fail'}'>Verdict: <b>{esc(verdict)}</b>"
+               f" ({len(report['failures'])} gating disagreements). Created {esc(report['created'])}. "
+               f"Rules and tolerances: docs/tolerances.md — two rows agree on a scalar when the Welch interval "
+               f"({100 * report['per_comparison_confidence']:.4g}% each: 95% family-wise over "
+               f"{report['gating_scalar_comparisons']} gating comparisons) of "
+               "the difference of their seed means contains zero and the difference is within the absolute "
+               "tolerance; on a yes/no observable when their 95% Clopper–Pearson intervals overlap. Gating pairs run "
+               "the same model in two engines; the others measure a model difference and are reported only.</p>")
+    out.append("<h2>Summary</h2><table id='summary'><tr><th>case</th><th>variant</th><th>rows</th><th>observable</th>"
+               "<th>A: mean ± sd (n)</th><th>B: mean ± sd (n)</th><th>difference [interval]</th>"
+               "<th>tolerance</th><th>verdict</th></tr>")
+    for c in report["comparisons"]:
+        cls = ("pass" if c["agree"] else "fail") if c["gating"] else "info"
+        word = ("agree" if c["agree"] else "DISAGREE") + ("" if c["gating"] else " (model, not gating)")
+
+        def side(s):
+            if not isinstance(s, dict):
+                return "–"
+            if "fraction" in s:
+                return f"{s['k']}/{s['n']} [{s['ci95'][0]:.2f}, {s['ci95'][1]:.2f}]"
+            if "mean" in s:
+                return f"{_fmt(s['mean'])} ± {_fmt(s['sd'])} ({s['n']}{', ' + str(s['undefined']) + ' undef.' if s['undefined'] else ''})"
+            return "–"
+        diff = (f"{_fmt(c['difference'])} [{_fmt(c['ci'][0])}, {_fmt(c['ci'][1])}]"
+                if "difference" in c else "–")
+        out.append(f"<tr class='{cls}'><td>{esc(c['case'])}</td><td>{esc(c['variant'])}</td>"
+                   f"<td>{esc(c['a_row'])} vs {esc(c['b_row'])}</td><td>{esc(c['observable'])}</td>"
+                   f"<td>{esc(side(c.get('a')))}</td><td>{esc(side(c.get('b')))}</td><td>{esc(diff)}</td>"
+                   f"<td>{_fmt(c.get('tolerance'))}</td><td>{esc(word)}{(': ' + esc(c['reason'])) if c.get('reason') else ''}</td></tr>")
+    out.append("</table>")
+    for name, case in report["cases"].items():
+        out.append(f"<h2>{esc(name)} ({esc(case['kind'])}: {esc(case['scene'])} {esc(' '.join(case['sets']))}; "
+                   f"seeds {case['seeds']})</h2>")
+        out.append("<table class='rows'><tr><th>variant</th><th>row</th><th>runs ok</th>"
+                   + "".join(f"<th>{esc(k)}</th>" for k in _scalar_names(case))
+                   + ("<th>convecting</th><th>rose</th>" if case["kind"] == "box" else "")
+                   + "<th>at Coulomb cap</th><th>particle-steps/s (whole run)</th></tr>")
+        for vname, rows in case["variants"].items():
+            for row, r in rows.items():
+                oks = _ok_runs(r)
+                cells = [f"{len(oks)}/{len(r['runs'])}" + (f" (failed: {r['failed_runs']})" if r["failed_runs"] else "")]
+                for k in _scalar_names(case):
+                    s = r["summary"][k]
+                    cells.append(f"{_fmt(s['mean'])} ± {_fmt(s['sd'])}" if s["mean"] is not None else "–")
+                if case["kind"] == "box":
+                    for key in ("convection", "rise"):
+                        b = r.get(key)
+                        cells.append(f"{b['k']}/{b['n']}" if b else "–")
+                caps = [x.get("coulomb_at_cap") for x in oks if x.get("coulomb_at_cap") is not None]
+                cells.append(f"{np.mean(caps):.3g}" if caps else "–")
+                cells.append(_fmt(r.get("speed")))
+                out.append(f"<tr><td>{esc(vname)}</td><td>{esc(row)}</td>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")
+        out.append("</table>")
+        if case.get("thresholds"):
+            out.append("<table><tr><th>row</th><th>convection onset (Hz) [interval]</th><th>rise threshold (Hz) [interval]</th></tr>")
+            for row, t in case["thresholds"].items():
+                def th(x):
+                    return f"{_fmt(x['threshold'])} [{_fmt(x['lo'])}, {_fmt(x['hi'])}] {x.get('threshold_position') or ''}"
+                out.append(f"<tr><td>{esc(row)}</td><td>{esc(th(t['convection']))}</td><td>{esc(th(t['rise']))}</td></tr>")
+            out.append("</table>")
+        for p in figs.get(name, []):
+            out.append(f"<p><img src='{esc(Path(p).name)}' alt='{esc(Path(p).stem)}'></p>")
+        for e in case.get("figure_errors", []):
+            out.append(f"<p class='fail'>figure not drawn: {esc(e)}</p>")
+    out.append("<p>Every number: <a href='report.json'>report.json</a>. Speeds here are whole-run wall-clock rates "
+               "(start-up and output included, runs sharing the machine); the interleaved benchmark is "
+               "<code>compare bench</code>.</p>")
+    out.append("<script>window.addEventListener('load',function(){var n=0;"
+               "document.querySelectorAll('img').forEach(function(i){if(i.complete&&i.naturalWidth>0)n++;});"
+               "document.body.setAttribute('data-images-loaded',n);"
+               "document.body.setAttribute('data-images-total',document.images.length);});</script>")
+    out.append("</body></html>")
+    (outdir / "report.html").write_text("\n".join(out))
+    return outdir / "report.html"
+
+
+def _scalar_names(case):
+    return ["slope_deg", "bands_final", "formation_rotations"] if case["kind"] == "drum" else ["bed_height", "phi_max"]
