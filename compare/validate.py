@@ -50,7 +50,9 @@ BOX_ROWS = {
     "yade": ("yade", []),  # leapfrog
 }
 # (a, b, gating): gating pairs run the same model and integrator in two engines.
-DRUM_PAIRS = [("native-linear", "lammps", True), ("native-viscel", "yade", True),
+# The drum's native-viscel - yade pair is not gating: YADE's wall is a polygon of
+# facets, not the smooth cylinder (docs/tolerances.md, Changes).
+DRUM_PAIRS = [("native-linear", "lammps", True), ("native-viscel", "yade", False),
               ("native-paper", "native-linear", False), ("native-paper", "native-viscel", False)]
 BOX_PAIRS = [("native-verlet", "lammps", True), ("native-viscel", "yade", True),
              ("native-paper", "native-verlet", False), ("native-verlet", "native-viscel", False)]

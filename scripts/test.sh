@@ -1,7 +1,16 @@
 #!/usr/bin/env bash
-# Every test: C++ (GoogleTest) and Python (pytest), through CTest.
+# Every test: C++ (GoogleTest) and Python (pytest) through CTest, then the
+# cross-engine quick suite and its report in a browser.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 cd build
 ctest --output-on-failure -j"$(nproc)"
+cd ..
+# The cross-engine quick suite (docs/tolerances.md): the native engine, LAMMPS
+# and YADE on a short drum and the box below and above the convection onset;
+# exits non-zero when two engines running the same model disagree.
+/usr/bin/python3 -m compare validate --suite quick -o build/validate_quick
+# Its report, opened in headless Chromium: the table and every image render.
+/usr/bin/python3 -m compare.browser_check build/validate_quick/report.html \
+  --screenshot build/test_output/validate_quick.png
