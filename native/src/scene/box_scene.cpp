@@ -112,15 +112,8 @@ BoxScene read_fields(SceneFile& f) {
 }  // namespace
 
 BoxScene read_box_scene(SceneFile& f) {
-  static const std::vector<std::string> known = [] {
-    SceneFile minimal = SceneFile::from_text(kMinimalBox, "<built-in shaken-box scene>");
-    read_fields(minimal);
-    return minimal.read_keys();
-  }();
-  f.reject_keys_outside(known);
-  BoxScene s = read_fields(f);
-  f.reject_unknown_keys();
-  return s;
+  static const auto known = SceneFile::keys_read_by(read_fields, kMinimalBox, "<built-in shaken-box scene>");
+  return f.read_checked(read_fields, known);
 }
 
 double BoxScene::cycle(double t) const {

@@ -144,15 +144,8 @@ DrumScene read_fields(SceneFile& f) {
 }  // namespace
 
 DrumScene read_drum_scene(SceneFile& f) {
-  static const std::vector<std::string> known = [] {
-    SceneFile minimal = SceneFile::from_text(kMinimalDrum, "<built-in drum scene>");
-    read_fields(minimal);
-    return minimal.read_keys();
-  }();
-  f.reject_keys_outside(known);
-  DrumScene s = read_fields(f);
-  f.reject_unknown_keys();
-  return s;
+  static const auto known = SceneFile::keys_read_by(read_fields, kMinimalDrum, "<built-in drum scene>");
+  return f.read_checked(read_fields, known);
 }
 
 namespace {

@@ -71,6 +71,24 @@ class SceneFile {
   // The keys read so far.
   std::vector<std::string> read_keys() const;
 
+  // Every key `read_fields` reads, found by reading `minimal`, a complete
+  // built-in scene of that kind.
+  template <class ReadFields>
+  static std::vector<std::string> keys_read_by(ReadFields read_fields, const char* minimal, const char* name) {
+    SceneFile m = from_text(minimal, name);
+    read_fields(m);
+    return m.read_keys();
+  }
+  // A whole scene read with its key checks: keys outside `known` first, then
+  // the values, then any key left unread.
+  template <class ReadFields>
+  auto read_checked(ReadFields read_fields, const std::vector<std::string>& known) {
+    reject_keys_outside(known);
+    auto s = read_fields(*this);
+    reject_unknown_keys();
+    return s;
+  }
+
   std::string resolved_toml() const;
   std::string resolved_json() const;
 
