@@ -19,7 +19,6 @@ ramp), to round-off."""
 
 import math
 import sys
-import traceback
 from pathlib import Path
 
 ROOT = Path(sys.argv[0]).resolve().parent.parent
@@ -37,7 +36,7 @@ from compare.schema_writer import SchemaWriter  # noqa: E402
 from compare.schedule import Shaker, box_schedule  # noqa: E402
 from yade_cases.common import read_workdir  # noqa: E402
 from yade_cases.mapping import box_material  # noqa: E402
-from yade_cases.yade_side import Progress, forces, run_steps, states, version  # noqa: E402
+from yade_cases.yade_side import Progress, forces, run_steps, states, version, script_main  # noqa: E402
 
 # Grains (and the big disk) mask 3, wall particles 5; avoidSelfInteractionMask 4
 # keeps wall particles (same mask) from pairing; 3 & 5 = 1 lets grains touch walls.
@@ -165,13 +164,4 @@ def main(work, out_path):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
-        print("usage: yade -n -x yade_cases/box_case.py WORKDIR OUT.h5", file=sys.stderr)
-        sys.exit(2)
-    try:
-        code = main(sys.argv[1], sys.argv[2])
-    except Exception:  # noqa: BLE001 - report and exit non-zero
-        traceback.print_exc()
-        code = 1
-    sys.stdout.flush()
-    sys.exit(code)
+    script_main(main, "box_case.py")

@@ -15,7 +15,6 @@ Coulomb (frictionAngle = 0, ks = 0)."""
 import json
 import math
 import sys
-import traceback
 from pathlib import Path
 
 ROOT = Path(sys.argv[0]).resolve().parent.parent
@@ -35,7 +34,7 @@ from compare.schedule import drum_schedule  # noqa: E402
 from yade_cases.common import read_workdir  # noqa: E402
 from yade_cases.mapping import (SPECIES, check_viscel_law, mismatch, pair_values, particle_material,  # noqa: E402
                                 polygon_radius_error, viscel_from_linear, wall_spread)
-from yade_cases.yade_side import Progress, run_steps, states, version  # noqa: E402
+from yade_cases.yade_side import Progress, run_steps, states, version, script_main  # noqa: E402
 
 # Mask bits (ENGINES.md): small spheres 9, big 12; small-species wall 3, big 20;
 # the collider's avoidSelfInteractionMask 18 keeps the facets of one cylinder
@@ -193,13 +192,4 @@ def main(work, out_path):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
-        print("usage: yade -n -x yade_cases/drum_case.py WORKDIR OUT.h5", file=sys.stderr)
-        sys.exit(2)
-    try:
-        code = main(sys.argv[1], sys.argv[2])
-    except Exception:  # noqa: BLE001 - report and exit non-zero
-        traceback.print_exc()
-        code = 1
-    sys.stdout.flush()
-    sys.exit(code)
+    script_main(main, "drum_case.py")

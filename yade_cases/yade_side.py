@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import sys
 import time
+import traceback
 
 import numpy as np
 
@@ -79,3 +80,19 @@ class Progress:
         if not self.quiet:
             print(f"\ndone: {total_steps} steps in {elapsed:.1f} s, {rate:.3g} particle-steps/s", file=sys.stderr)
         return rate
+
+
+def script_main(main, script: str) -> None:
+    """Entry point of a case script run as `yade -n -x SCRIPT WORKDIR OUT.h5`:
+    runs main(workdir, out), prints any exception's traceback and exits with
+    main's status (1 on an exception, 2 on a wrong command line)."""
+    if len(sys.argv) != 3:
+        print(f"usage: yade -n -x yade_cases/{script} WORKDIR OUT.h5", file=sys.stderr)
+        sys.exit(2)
+    try:
+        code = main(sys.argv[1], sys.argv[2])
+    except Exception:  # noqa: BLE001 - report and exit non-zero
+        traceback.print_exc()
+        code = 1
+    sys.stdout.flush()
+    sys.exit(code)
