@@ -1,12 +1,14 @@
 // granular: the native engine's command-line program.
-//   granular run SCENE [-o OUT.h5] [--force] [--set key=value]... [--threads N]
+//   granular run SCENE [-o OUT.h5] [--force | --resume] [--set key=value]... [--threads N]
+//                [--checkpoint-every MINUTES] [--checkpoint-steps N]
 //   granular init SCENE [-o INIT.h5] [--force] [--set key=value]...
 //   granular info SCENE [--set key=value]... [--json]
 //   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S]
 // SCENE is a drum (Rapaport 2002) or shaken-box (Poeschel and Herrmann 1995)
 // scene file; its scene.kind picks the model. Exit status (docs/errors.md):
 // 0 done, 2 refused before anything ran (bad scene, bad command line, existing
-// output without --force), 3 unstable run, 1 any other failure.
+// output without --force, nothing to resume), 3 unstable run, 130/143 stopped
+// by SIGINT/SIGTERM after writing a checkpoint, 1 any other failure.
 #include <omp.h>
 #include <unistd.h>
 
@@ -16,10 +18,12 @@
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <map>
 #include <optional>
 
 #include "engine/box.hpp"
 #include "engine/drum.hpp"
+#include "engine/run_control.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
 #include "version.hpp"
@@ -173,28 +177,98 @@ void common_attrs(H5Output& out, const Loaded& l, const std::string& scene_path)
   out.attr("threads", static_cast<std::int64_t>(omp_get_max_threads()));
 }
 
-int run_scene(const Loaded& l, const std::string& scene_path, std::string out_path, bool quiet, bool force) {
+struct RunOptions {
+  bool quiet = false, force = false, resume = false;
+  bool threads_given = false;
+  double checkpoint_minutes = 10.0;
+  long checkpoint_steps = 0;
+};
+
+// Keys of the resolved scene, flattened to "section.key", with their values.
+void flatten(const nlohmann::json& j, const std::string& prefix, std::map<std::string, std::string>& out) {
+  if (j.is_object()) {
+    for (const auto& [k, v] : j.items()) flatten(v, prefix.empty() ? k : prefix + "." + k, out);
+  } else {
+    out[prefix] = j.dump();
+  }
+}
+
+// A run resumes only with the scene it was started with; only its length
+// (run.rotations, run.duration) may grow.
+void check_same_scene(const std::string& ckpt_path, const std::string& saved_json, const std::string& json) {
+  std::map<std::string, std::string> a, b;
+  flatten(nlohmann::json::parse(saved_json), "", a);
+  flatten(nlohmann::json::parse(json), "", b);
+  for (const auto& [k, v] : a)
+    if (k != "run.rotations" && k != "run.duration" && (!b.count(k) || b[k] != v))
+      throw UsageError(ckpt_path + ": the checkpoint was written for " + k + " = " + v + ", the scene now gives " +
+                       (b.count(k) ? b[k] : std::string("nothing")) +
+                       "; resume with the same scene file and --set options (only run.rotations or run.duration "
+                       "may change)");
+  for (const auto& [k, v] : b)
+    if (!a.count(k)) throw UsageError(ckpt_path + ": the scene now has " + k + ", which the checkpoint's scene had not");
+}
+
+int run_scene(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
   if (out_path.empty()) out_path = l.name() + ".h5";
-  check_output(out_path, force);
-  const bool progress = !quiet && isatty(fileno(stderr));
+  const std::string ckpt_path = checkpoint_path(out_path);
+  std::optional<CheckpointData> saved;
+  if (o.resume) {
+    if (!std::filesystem::exists(out_path)) throw UsageError(out_path + ": no output file to resume");
+    if (!std::filesystem::exists(ckpt_path))
+      throw UsageError(ckpt_path + ": no checkpoint to resume from (a run writes one every --checkpoint-every "
+                                   "minutes, on SIGINT/SIGTERM and at its end; start the run again with --force)");
+    try {
+      saved = read_checkpoint(ckpt_path);
+    } catch (const std::runtime_error& e) {
+      throw UsageError(e.what());
+    }
+    check_same_scene(ckpt_path, saved->scene_json, l.json);
+    if (!o.threads_given)
+      omp_set_num_threads(static_cast<int>(saved->threads));
+    else if (saved->threads != omp_get_max_threads())
+      std::fprintf(stderr,
+                   "warning: the checkpoint was written with %lld thread(s), this run uses %d: forces are summed in "
+                   "another order, so the continuation is statistically, not bitwise, the same run\n",
+                   static_cast<long long>(saved->threads), omp_get_max_threads());
+  } else {
+    check_output(out_path, o.force);
+    std::filesystem::remove(ckpt_path);  // a checkpoint of an earlier run into this output
+  }
+  install_stop_handlers();
+  RunControl ctl;
+  ctl.checkpoint = ckpt_path;
+  ctl.every_seconds = 60.0 * o.checkpoint_minutes;
+  ctl.every_steps = o.checkpoint_steps;
+  ctl.resume = saved ? &*saved : nullptr;
+  ctl.meta.scene_json = l.json;
+  ctl.meta.engine_version = kVersion;
+  ctl.meta.threads = omp_get_max_threads();
+  ctl.meta.seed = l.drum ? static_cast<std::int64_t>(l.drum->seed) : static_cast<std::int64_t>(l.box->seed);
+  const RowCounts* rows = saved ? &saved->rows : nullptr;
+  const char* verb = saved ? "resuming" : "writing";
+  const bool progress = !o.quiet && isatty(fileno(stderr));
   RunReport r;
   if (l.drum) {
     const DrumScene& s = *l.drum;
     DrumSim sim = make_drum(s);
     const auto n = std::visit([](auto& v) { return v.p.size(); }, sim);
-    H5Output out(out_path, 3, static_cast<std::int64_t>(n));
+    H5Output out(out_path, 3, static_cast<std::int64_t>(n), false, rows);
     common_attrs<3>(out, l, scene_path);
     out.attr("omega", s.omega);
     out.attr("rotation_period", s.rotation_period());
     out.group_attr("frames", "species_names", {"small", "big"});
     std::fprintf(stderr, "granular %s: drum %s (%s), %zu particles, %.4g rotations, %d thread(s) -> %s\n", kVersion,
                  s.name.c_str(), scene_path.c_str(), n, s.rotations, omp_get_max_threads(), out_path.c_str());
-    r = run_drum(s, sim, &out, progress);
+    if (saved)
+      std::fprintf(stderr, "%s from step %lld (rotation %.4g)\n", verb, static_cast<long long>(saved->step),
+                   saved->time / s.rotation_period());
+    r = run_drum(s, sim, &out, progress, ctl);
   } else {
     const BoxScene& s = *l.box;
     BoxSim sim = make_box(s);
     const auto n = std::visit([](auto& v) { return v.p.size(); }, sim);
-    H5Output out(out_path, 2, static_cast<std::int64_t>(n), true);
+    H5Output out(out_path, 2, static_cast<std::int64_t>(n), true, rows);
     common_attrs<2>(out, l, scene_path);
     out.attr("frequency", s.frequency);
     out.attr("amplitude", s.amplitude);
@@ -205,7 +279,9 @@ int run_scene(const Loaded& l, const std::string& scene_path, std::string out_pa
     std::fprintf(stderr, "granular %s: shaken box %s (%s), %zu particles, %.3g s settling + %.4g s shaking, %d thread(s) -> %s\n",
                  kVersion, s.name.c_str(), scene_path.c_str(), n, s.settle, s.duration, omp_get_max_threads(),
                  out_path.c_str());
-    r = run_box(s, sim, &out, progress);
+    if (saved)
+      std::fprintf(stderr, "%s from step %lld (t = %.6g s)\n", verb, static_cast<long long>(saved->step), saved->time);
+    r = run_box(s, sim, &out, progress, ctl);
   }
   std::fprintf(stderr, "done: %ld steps in %.1f s, %.3g particle-steps/s\n%s", r.steps, r.seconds,
                r.particle_steps_per_second, r.timing.c_str());
@@ -275,11 +351,21 @@ int main(int argc, char** argv) {
   auto* run = app.add_subcommand("run", "run a scene and write HDF5 output");
   run->add_option("scene", scene_path, "scene file (TOML)")->required();
   run->add_option("-o,--output", out_path, "output HDF5 file (default: the scene name + .h5)");
-  run->add_flag("--force", force, "overwrite the output file if it exists");
+  auto* force_flag = run->add_flag("--force", force, "overwrite the output file if it exists");
   run->add_option("--set", sets, "override a scene key: key=value (repeatable)");
   run->add_option("--threads", threads, "OpenMP threads (default: all cores)")->check(CLI::PositiveNumber);
-  bool quiet = false;
-  run->add_flag("-q,--quiet", quiet, "no progress line");
+  RunOptions ro;
+  run->add_flag("-q,--quiet", ro.quiet, "no progress line");
+  auto* resume_flag = run->add_flag("--resume", ro.resume,
+                                    "continue OUT from its checkpoint OUT.ckpt, appending to OUT (same scene and --set "
+                                    "options; run.rotations or run.duration may grow)");
+  run->add_option("--checkpoint-every", ro.checkpoint_minutes,
+                  "minutes of wall-clock time between checkpoints (default 10; 0: only on SIGINT/SIGTERM and at the end)")
+      ->check(CLI::NonNegativeNumber);
+  run->add_option("--checkpoint-steps", ro.checkpoint_steps, "also checkpoint every N steps")
+      ->check(CLI::NonNegativeNumber);
+
+  resume_flag->excludes(force_flag);
 
   auto* init = app.add_subcommand("init", "write the initial state (one frame, masses, inertia) for another engine");
   init->add_option("scene", scene_path, "scene file (TOML)")->required();
@@ -328,7 +414,9 @@ int main(int argc, char** argv) {
     if (*run) {
       if (threads > 0) omp_set_num_threads(threads);
       const Loaded l = load(scene_path, sets);  // all validation happens before the output is touched
-      return run_scene(l, scene_path, out_path, quiet, force);
+      ro.force = force;
+      ro.threads_given = threads > 0;
+      return run_scene(l, scene_path, out_path, ro);
     }
     if (*bench) {
       const Loaded l = load(scene_path, sets);
@@ -372,6 +460,9 @@ int main(int argc, char** argv) {
   } catch (const UsageError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
+  } catch (const Interrupted& e) {
+    std::fprintf(stderr, "\nstopped: %s\n", e.what());
+    return 128 + e.signal();
   } catch (const UnstableError& e) {
     std::fprintf(stderr, "\nerror: %s\n(the output file keeps every frame written before this point)\n", e.what());
     return 3;

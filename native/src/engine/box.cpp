@@ -1,7 +1,9 @@
 #include "engine/box.hpp"
 
 #include "engine/coulomb_census.hpp"
+#include "engine/run_control.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -78,7 +80,7 @@ std::size_t big_index(const Sim& sim) {
 }
 
 template <class Sim>
-RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress) {
+RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, const RunControl& ctl) {
   const long total = std::lround((s.settle + s.duration) / s.dt);
   const long settle_steps = std::lround(s.settle / s.dt);
   const bool has_big = big_index(sim) < sim.p.size();
@@ -112,32 +114,44 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress) {
                    {sim.p.x[b].x(), sim.p.x[b].y()}, {sim.p.v[b].x(), sim.p.v[b].y()}});
     }
   };
-  observe(true);
+  long start = 0;
+  if (ctl.resume) {
+    restore(sim, *ctl.resume);
+    if (ctl.resume->counters.size() != 2) throw std::runtime_error(ctl.checkpoint + ": not a shaken-box checkpoint");
+    snap_k = ctl.resume->counters[0];
+    trace_k = ctl.resume->counters[1];
+    start = sim.step_count;
+  } else {
+    observe(true);
+  }
+  Checkpointer checkpoints(ctl);
   sim.timers.reset();
   const auto t0 = std::chrono::steady_clock::now();
   auto last = t0;
   const double n = static_cast<double>(sim.p.size());
-  for (long k = 1; k <= total; ++k) {
+  for (long k = start + 1; k <= total; ++k) {
     sim.step();
     observe(k == settle_steps || k == total);
+    checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total);
     if (progress && (k % 500 == 0 || k == total)) {
       const auto now = std::chrono::steady_clock::now();
       if (now - last > std::chrono::milliseconds(500) || k == total) {
         last = now;
         const double el = std::chrono::duration<double>(now - t0).count();
         std::fprintf(stderr, "\r  t = %.2f / %.2f s (%s)   %.3g particle-steps/s   %.0f s left   ", sim.time,
-                     s.settle + s.duration, k <= settle_steps ? "settling" : "shaking", k * n / el,
-                     el / k * (total - k));
+                     s.settle + s.duration, k <= settle_steps ? "settling" : "shaking", (k - start) * n / el,
+                     el / (k - start) * (total - k));
         std::fflush(stderr);
       }
     }
   }
   if (progress) std::fprintf(stderr, "\n");
   RunReport r;
-  r.steps = total;
+  r.steps = std::max(0L, total - start);
   r.particles = static_cast<long>(n);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  r.particle_steps_per_second = r.seconds > 0 ? total * n / r.seconds : 0.0;
+  r.particle_steps_per_second = r.seconds > 0 ? r.steps * n / r.seconds : 0.0;
+  r.checkpoints = checkpoints.written();
   r.timing = phase_report(sim, r.seconds);
   return r;
 }
@@ -156,8 +170,8 @@ BoxSim make_box(const BoxScene& s) {
   return sim;
 }
 
-RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress) {
-  return std::visit([&](auto& v) { return run_impl(s, v, out, progress); }, sim);
+RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, const RunControl& ctl) {
+  return std::visit([&](auto& v) { return run_impl(s, v, out, progress, ctl); }, sim);
 }
 
 RunReport bench_box(const BoxScene& s, double settle, double seconds) {

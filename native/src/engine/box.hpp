@@ -30,7 +30,8 @@ BoxSim make_box(const BoxScene& s);
 // Writes snapshots (with contact forces) at the vibration's nodes and the big
 // disk's trajectory to `out` (may be null). Stops with UnstableError if a
 // grain leaves the box.
-RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress);
+// ctl: checkpoints, and the state to resume from (engine/run_control.hpp).
+RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, const RunControl& ctl = RunControl{});
 
 RunReport bench_box(const BoxScene& s, double settle, double seconds);
 

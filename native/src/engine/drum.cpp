@@ -10,6 +10,7 @@
 #include <type_traits>
 
 #include "engine/coulomb_census.hpp"
+#include "engine/run_control.hpp"
 #include "scene/law_mapping.hpp"
 
 namespace granular {
@@ -103,7 +104,7 @@ void check_inside(const Sim& sim, const DrumScene& s) {
 }
 
 template <class Sim>
-RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress) {
+RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, const RunControl& ctl) {
   const long total = s.steps_per(s.rotations);
   const auto edges = slice_edges(s);
   const double period = s.rotation_period();
@@ -130,33 +131,45 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress) {
     if (out && snap) out->frame(sim.time, sim.step_count, sim.p);
   };
   if (out) out->init_profile(edges);
-  observe(false);
+  long start = 0;
+  if (ctl.resume) {
+    restore(sim, *ctl.resume);
+    if (ctl.resume->counters.size() != 2) throw std::runtime_error(ctl.checkpoint + ": not a drum checkpoint");
+    snap_k = ctl.resume->counters[0];
+    prof_k = ctl.resume->counters[1];
+    start = sim.step_count;
+  } else {
+    observe(false);
+  }
+  Checkpointer checkpoints(ctl);
   sim.timers.reset();
   const auto t0 = std::chrono::steady_clock::now();
   auto last_print = t0;
   const long n = static_cast<long>(sim.p.size());
-  for (long k = 1; k <= total; ++k) {
+  for (long k = start + 1; k <= total; ++k) {
     sim.step();
     const bool fin = k == total;
     observe(fin);
+    checkpoints.after_step(sim, out, {snap_k, prof_k}, fin);
     if (progress && (k % 200 == 0 || fin)) {
       const auto now = std::chrono::steady_clock::now();
       if (now - last_print > std::chrono::milliseconds(500) || fin) {
         last_print = now;
         const double el = std::chrono::duration<double>(now - t0).count();
-        const double rate = el > 0 ? static_cast<double>(k) * n / el : 0.0;
+        const double rate = el > 0 ? static_cast<double>(k - start) * n / el : 0.0;
         std::fprintf(stderr, "\r  rotation %.2f / %.2f   %.3g particle-steps/s   %s left   ", sim.time / period,
-                     s.rotations, rate, format_duration(el / k * (total - k)).c_str());
+                     s.rotations, rate, format_duration(el / (k - start) * (total - k)).c_str());
         std::fflush(stderr);
       }
     }
   }
   if (progress) std::fprintf(stderr, "\n");
   RunReport r;
-  r.steps = total;
+  r.steps = std::max(0L, total - start);
   r.particles = n;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(total) * n / r.seconds : 0.0;
+  r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(r.steps) * n / r.seconds : 0.0;
+  r.checkpoints = checkpoints.written();
   r.timing = phase_report(sim, r.seconds);
   return r;
 }
@@ -202,8 +215,8 @@ std::vector<double> axial_small_fraction(const ParticleStore<3>& p, const std::v
   return small;
 }
 
-RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progress) {
-  return std::visit([&](auto& v) { return run_impl(s, v, out, progress); }, sim);
+RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progress, const RunControl& ctl) {
+  return std::visit([&](auto& v) { return run_impl(s, v, out, progress, ctl); }, sim);
 }
 
 RunReport bench_drum(const DrumScene& s, double settle, double rotations) {

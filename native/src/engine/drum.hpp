@@ -12,6 +12,7 @@
 #include "contact/linear.hpp"
 #include "contact/rapaport.hpp"
 #include "contact/viscel.hpp"
+#include "engine/run_control.hpp"
 #include "engine/simulation.hpp"
 #include "integrate/leapfrog.hpp"
 #include "io/h5_output.hpp"
@@ -42,11 +43,14 @@ struct RunReport {
   double seconds = 0.0;
   double particle_steps_per_second = 0.0;
   std::string timing;  // where the time went, one line per phase
+  long checkpoints = 0;  // checkpoints written
 };
 
 // Runs s.rotations rotations, writing frames and profiles to `out` (may be null).
-// `progress` = show a progress line on stderr.
-RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progress);
+// `progress` = show a progress line on stderr. ctl: checkpoints, and the state
+// to resume from (then `out` must have been opened for resuming).
+RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progress,
+                   const RunControl& ctl = RunControl{});
 
 // Settle for `settle` rotations, then time `rotations` rotations.
 RunReport bench_drum(const DrumScene& s, double settle, double rotations);

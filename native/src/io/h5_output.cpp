@@ -10,26 +10,56 @@ void check(herr_t e, const std::string& what, const std::string& path) {
 }
 }  // namespace
 
-H5Output::H5Output(const std::string& path, int dim, std::int64_t n, bool with_force)
-    : path_(path), dim_(dim), n_(n), with_force_(with_force) {
+H5Output::H5Output(const std::string& path, int dim, std::int64_t n, bool with_force, const RowCounts* resume)
+    : path_(path), dim_(dim), n_(n), with_force_(with_force), resuming_(resume != nullptr) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions below, not stderr dumps
-  file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (file_ < 0) throw std::runtime_error(path + ": cannot create the output file");
-  frames_ = H5Gcreate2(file_, "frames", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (resuming_) {
+    resume_rows_ = *resume;
+    file_ = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    if (file_ < 0) throw std::runtime_error(path + ": cannot open the output file to resume it (missing or damaged)");
+  } else {
+    file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    if (file_ < 0) throw std::runtime_error(path + ": cannot create the output file");
+  }
+  frames_ = group("frames");
   const hsize_t un = static_cast<hsize_t>(n), ud = static_cast<hsize_t>(dim);
   const hsize_t ua = dim == 3 ? 3 : 1;
-  f_time_ = make(frames_, "time", H5T_NATIVE_DOUBLE, {});
-  f_step_ = make(frames_, "step", H5T_NATIVE_INT64, {});
-  f_id_ = make(frames_, "id", H5T_NATIVE_INT64, {un});
-  f_species_ = make(frames_, "species", H5T_NATIVE_INT32, {un});
-  f_diam_ = make(frames_, "diameter", H5T_NATIVE_DOUBLE, {un});
-  f_pos_ = make(frames_, "position", H5T_NATIVE_DOUBLE, {un, ud});
-  f_vel_ = make(frames_, "velocity", H5T_NATIVE_DOUBLE, {un, ud});
-  f_ang_ = make(frames_, "angular_velocity", H5T_NATIVE_DOUBLE, {un, ua});
-  if (with_force) f_force_ = make(frames_, "force", H5T_NATIVE_DOUBLE, {un, ud});
+  f_time_ = make(frames_, "frames", "time", H5T_NATIVE_DOUBLE, {});
+  f_step_ = make(frames_, "frames", "step", H5T_NATIVE_INT64, {});
+  f_id_ = make(frames_, "frames", "id", H5T_NATIVE_INT64, {un});
+  f_species_ = make(frames_, "frames", "species", H5T_NATIVE_INT32, {un});
+  f_diam_ = make(frames_, "frames", "diameter", H5T_NATIVE_DOUBLE, {un});
+  f_pos_ = make(frames_, "frames", "position", H5T_NATIVE_DOUBLE, {un, ud});
+  f_vel_ = make(frames_, "frames", "velocity", H5T_NATIVE_DOUBLE, {un, ud});
+  f_ang_ = make(frames_, "frames", "angular_velocity", H5T_NATIVE_DOUBLE, {un, ua});
+  if (with_force) f_force_ = make(frames_, "frames", "force", H5T_NATIVE_DOUBLE, {un, ud});
   attr("schema", std::string("granular-frames"));
   attr("schema_version", std::int64_t{1});
   attr("dim", std::int64_t{dim});
+}
+
+hid_t H5Output::group(const std::string& name) {
+  hid_t g = resuming_ && H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0
+                ? H5Gopen2(file_, name.c_str(), H5P_DEFAULT)
+                : H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) throw std::runtime_error(path_ + ": cannot create or open group " + name);
+  return g;
+}
+
+std::vector<const H5Output::Appendable*> H5Output::all() const {
+  std::vector<const Appendable*> v;
+  for (const Appendable* a : {&f_time_, &f_step_, &f_id_, &f_species_, &f_diam_, &f_pos_, &f_vel_, &f_ang_,
+                              &f_force_, &p_time_, &p_frac_})
+    if (a->dset >= 0) v.push_back(a);
+  for (const auto& g : series_)
+    for (const auto& a : g.columns) v.push_back(&a);
+  return v;
+}
+
+RowCounts H5Output::rows() const {
+  RowCounts r;
+  for (const Appendable* a : all()) r[a->name] = a->rows;
+  return r;
 }
 
 H5Output::~H5Output() {
@@ -46,12 +76,32 @@ H5Output::~H5Output() {
   if (file_ >= 0) H5Fclose(file_);
 }
 
-H5Output::Appendable H5Output::make(hid_t group, const char* name, hid_t type, std::vector<hsize_t> row) {
+H5Output::Appendable H5Output::make(hid_t group, const std::string& group_name, const char* name, hid_t type,
+                                    std::vector<hsize_t> row) {
+  const std::string full = group_name + "/" + name;
   std::vector<hsize_t> dims{0}, maxd{H5S_UNLIMITED}, chunk{1};
   for (hsize_t r : row) {
     dims.push_back(r);
     maxd.push_back(r);
     chunk.push_back(r);
+  }
+  if (resuming_) {
+    // Cut back to the checkpoint's rows: anything written after it is written again.
+    const auto it = resume_rows_.find(full);
+    if (it == resume_rows_.end())
+      throw std::runtime_error(path_ + ": the checkpoint has no record of dataset " + full);
+    hid_t d = H5Dopen2(group, name, H5P_DEFAULT);
+    if (d < 0) throw std::runtime_error(path_ + ": dataset " + full + " is missing; cannot resume into this file");
+    hid_t space = H5Dget_space(d);
+    std::vector<hsize_t> have(dims.size());
+    const int nd = H5Sget_simple_extent_ndims(space);
+    if (nd == static_cast<int>(dims.size())) H5Sget_simple_extent_dims(space, have.data(), nullptr);
+    H5Sclose(space);
+    if (nd != static_cast<int>(dims.size()) || have[0] < it->second)
+      throw std::runtime_error(path_ + ": dataset " + full + " holds fewer rows than the checkpoint recorded");
+    dims[0] = it->second;
+    check(H5Dset_extent(d, dims.data()), "cutting " + full + " back to the checkpoint", path_);
+    return {full, d, row, type, it->second};
   }
   if (row.empty()) chunk[0] = 256;
   hid_t space = H5Screate_simple(static_cast<int>(dims.size()), dims.data(), maxd.data());
@@ -60,8 +110,8 @@ H5Output::Appendable H5Output::make(hid_t group, const char* name, hid_t type, s
   hid_t d = H5Dcreate2(group, name, type, space, H5P_DEFAULT, plist, H5P_DEFAULT);
   H5Pclose(plist);
   H5Sclose(space);
-  if (d < 0) throw std::runtime_error(path_ + ": cannot create dataset " + name);
-  return {d, row, type, 0};
+  if (d < 0) throw std::runtime_error(path_ + ": cannot create dataset " + full);
+  return {full, d, row, type, 0};
 }
 
 void H5Output::append(Appendable& a, const void* data) {
@@ -98,15 +148,18 @@ void H5Output::write_frame(double time, long step, const std::vector<std::int64_
 }
 
 void H5Output::init_profile(const std::vector<double>& edges) {
-  profile_ = H5Gcreate2(file_, "profile", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const bool exists = resuming_ && H5Lexists(file_, "profile", H5P_DEFAULT) > 0;
+  profile_ = group("profile");
   const hsize_t ne = edges.size();
-  hid_t space = H5Screate_simple(1, &ne, nullptr);
-  hid_t ds = H5Dcreate2(profile_, "edges", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, edges.data());
-  H5Dclose(ds);
-  H5Sclose(space);
-  p_time_ = make(profile_, "time", H5T_NATIVE_DOUBLE, {});
-  p_frac_ = make(profile_, "small_fraction", H5T_NATIVE_DOUBLE, {ne - 1});
+  if (!exists) {
+    hid_t space = H5Screate_simple(1, &ne, nullptr);
+    hid_t ds = H5Dcreate2(profile_, "edges", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, edges.data());
+    H5Dclose(ds);
+    H5Sclose(space);
+  }
+  p_time_ = make(profile_, "profile", "time", H5T_NATIVE_DOUBLE, {});
+  p_frac_ = make(profile_, "profile", "small_fraction", H5T_NATIVE_DOUBLE, {ne - 1});
   group_attr("profile", "axis", {"y"});
   group_attr("profile", "weighting", {"volume"});
 }
@@ -119,11 +172,11 @@ void H5Output::profile(double time, const std::vector<double>& frac) {
 
 int H5Output::init_series(const std::string& group, const std::vector<std::pair<std::string, int>>& columns) {
   Series g;
-  g.group = H5Gcreate2(file_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  g.group = this->group(group);
   for (const auto& [name, width] : columns) {
     std::vector<hsize_t> row;
     if (width > 1) row.push_back(static_cast<hsize_t>(width));
-    g.columns.push_back(make(g.group, name.c_str(), H5T_NATIVE_DOUBLE, row));
+    g.columns.push_back(make(g.group, group, name.c_str(), H5T_NATIVE_DOUBLE, row));
   }
   series_.push_back(std::move(g));
   return static_cast<int>(series_.size()) - 1;

@@ -6,6 +6,7 @@
 #include <hdf5.h>
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -13,10 +14,18 @@
 
 namespace granular {
 
+// Rows of every appendable dataset, by path ("frames/time", ...): what a
+// checkpoint records so that a resumed run can cut the output back to it.
+using RowCounts = std::map<std::string, std::uint64_t>;
+
 class H5Output {
  public:
   // with_force: snapshots also carry each particle's contact force.
-  H5Output(const std::string& path, int dim, std::int64_t n_particles, bool with_force = false);
+  // resume: open the existing file instead of creating it, and cut every
+  // appendable dataset back to the rows given (a checkpoint's record); the
+  // datasets and groups the run declares are then opened, not created.
+  H5Output(const std::string& path, int dim, std::int64_t n_particles, bool with_force = false,
+           const RowCounts* resume = nullptr);
   ~H5Output();
   H5Output(const H5Output&) = delete;
   H5Output& operator=(const H5Output&) = delete;
@@ -40,15 +49,19 @@ class H5Output {
   void series(int handle, const std::vector<std::vector<double>>& row);
 
   const std::string& path() const { return path_; }
+  RowCounts rows() const;
 
  private:
   struct Appendable {
+    std::string name;  // path in the file
     hid_t dset = -1;
     std::vector<hsize_t> row;  // shape of one row (without the leading axis)
     hid_t type = -1;
     hsize_t rows = 0;
   };
-  Appendable make(hid_t group, const char* name, hid_t type, std::vector<hsize_t> row);
+  Appendable make(hid_t group, const std::string& group_name, const char* name, hid_t type, std::vector<hsize_t> row);
+  hid_t group(const std::string& name);  // created, or opened when resuming
+  std::vector<const Appendable*> all() const;
   void append(Appendable& a, const void* data);
   void write_frame(double time, long step, const std::vector<std::int64_t>& id, const std::vector<std::int32_t>& sp,
                    const std::vector<double>& d, const std::vector<double>& x, const std::vector<double>& v,
@@ -61,6 +74,8 @@ class H5Output {
   Appendable f_time_, f_step_, f_id_, f_species_, f_diam_, f_pos_, f_vel_, f_ang_;
   Appendable p_time_, p_frac_, f_force_;
   bool with_force_ = false;
+  bool resuming_ = false;
+  RowCounts resume_rows_;  // rows to cut each dataset back to, when resuming
   struct Series {
     hid_t group = -1;
     std::vector<Appendable> columns;

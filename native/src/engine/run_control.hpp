@@ -1,0 +1,87 @@
+// Checkpoints, interruption and resumption of a run, shared by the drum and
+// the shaken box. The run loop calls Checkpointer::after_step once per step;
+// it costs one clock read and one flag test unless a checkpoint is due.
+#pragma once
+#include <chrono>
+#include <csignal>
+#include <cstdint>
+#include <initializer_list>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "engine/checkpoint.hpp"
+#include "io/checkpoint_file.hpp"
+#include "io/h5_output.hpp"
+
+namespace granular {
+
+struct RunControl {
+  std::string checkpoint;        // checkpoint path; empty: no checkpoints
+  double every_seconds = 600.0;  // wall-clock time between checkpoints (0: not by time)
+  long every_steps = 0;          // steps between checkpoints (0: not by steps)
+  const CheckpointData* resume = nullptr;  // continue from this state
+  CheckpointData meta;           // run-level fields copied into each checkpoint
+};
+
+// SIGINT or SIGTERM arrived: the run wrote a checkpoint and stopped.
+class Interrupted : public std::runtime_error {
+ public:
+  Interrupted(const std::string& what, int sig) : std::runtime_error(what), signal_(sig) {}
+  int signal() const { return signal_; }
+
+ private:
+  int signal_;
+};
+
+// SIGINT/SIGTERM ask the run to stop at the end of its step (a second signal
+// stops at once, without a checkpoint).
+void install_stop_handlers();
+int stop_signal();  // 0 if no stop was requested
+
+class Checkpointer {
+ public:
+  explicit Checkpointer(const RunControl& ctl) : ctl_(ctl), last_(Clock::now()) {}
+
+  // After a step (and its output). Writes a checkpoint when one is due, at the
+  // final step, or when a stop was requested (then throws Interrupted).
+  template <class Sim>
+  void after_step(const Sim& sim, const H5Output* out, std::initializer_list<std::int64_t> counters, bool final_step) {
+    const int sig = stop_signal();
+    if (ctl_.checkpoint.empty()) {
+      if (sig) throw Interrupted(interrupted_message(sim, sig, false), sig);
+      return;
+    }
+    bool due = final_step || sig != 0 || (ctl_.every_steps > 0 && sim.step_count % ctl_.every_steps == 0);
+    if (!due && ctl_.every_seconds > 0 && (sim.step_count & 63) == 0) {
+      const auto now = Clock::now();
+      due = std::chrono::duration<double>(now - last_).count() >= ctl_.every_seconds;
+    }
+    if (!due) return;
+    CheckpointData c = ctl_.meta;
+    capture(sim, c);
+    c.counters = counters;
+    if (out) c.rows = out->rows();
+    write_checkpoint(ctl_.checkpoint, c);
+    last_ = Clock::now();
+    ++written_;
+    if (sig) throw Interrupted(interrupted_message(sim, sig, true), sig);
+  }
+
+  long written() const { return written_; }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  template <class Sim>
+  std::string interrupted_message(const Sim& sim, int sig, bool saved) const {
+    std::string m = std::string(sig == SIGINT ? "SIGINT" : "SIGTERM") + " at step " +
+                    std::to_string(sim.step_count) + " (t = " + std::to_string(sim.time) + ")";
+    if (saved) m += "; checkpoint written to " + ctl_.checkpoint + " (continue with --resume)";
+    return m;
+  }
+  const RunControl& ctl_;
+  Clock::time_point last_;
+  long written_ = 0;
+};
+
+}  // namespace granular
