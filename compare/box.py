@@ -24,10 +24,10 @@ from __future__ import annotations
 
 import math
 
-import h5py
 import numpy as np
 
 from ._common import Result, clean_json  # noqa: E402
+from .reader import open_h5, read_series  # noqa: E402
 
 SMALL, BIG, WALL = 0, 1, 2  # species codes of the shaken-box scenes
 
@@ -173,11 +173,12 @@ def read_forces(run):
     f = getattr(run.frames, "force", None)
     if f is not None:
         return np.asarray(f, dtype=np.float64)
-    with h5py.File(run.path, "r") as h5:
+    with open_h5(run.path) as h5:
         if "frames/force" not in h5:
             raise ValueError(f"{run.path}: no /frames/force in the file")
-        force = h5["frames/force"][()].astype(np.float64)
-        ids = h5["frames/id"][()]
+        n = run.frames.n_frames  # complete frames (compare.reader)
+        force = h5["frames/force"][:n].astype(np.float64)
+        ids = h5["frames/id"][:n]
     if force.shape[:2] != ids.shape:
         raise ValueError(f"{run.path}: /frames/force has shape {force.shape}, /frames/id {ids.shape}")
     order = np.argsort(ids, axis=1, kind="stable")
@@ -186,11 +187,7 @@ def read_forces(run):
 
 def read_trace(run):
     """The big disk's trace as a dict of arrays, or None if the file has none."""
-    with h5py.File(run.path, "r") as h5:
-        if "trace" not in h5:
-            return None
-        g = h5["trace"]
-        return {k: g[k][()].astype(np.float64) for k in g.keys()}
+    return read_series(run.path, "trace")
 
 
 def _big_column(run):

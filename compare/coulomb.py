@@ -10,10 +10,10 @@ reports the fraction per species pair and per wall species.
 """
 from __future__ import annotations
 
-import h5py
 import numpy as np
 
 from ._common import Result
+from .reader import read_series
 
 DRUM_SPECIES = ("small", "big", "wall particle")
 BOX_SPECIES = ("grain", "big", "wall particle")
@@ -21,10 +21,7 @@ BOX_SPECIES = ("grain", "big", "wall particle")
 
 def read_census(path):
     """The census as a dict of arrays, or None if the file has none."""
-    with h5py.File(path, "r") as h5:
-        if "coulomb" not in h5:
-            return None
-        return {k: h5["coulomb"][k][()].astype(np.float64) for k in h5["coulomb"].keys()}
+    return read_series(path, "coulomb")
 
 
 class CoulombCap(Result):

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 
 from ._common import clean_json
 from .bands import BandCount, BandFormation

@@ -104,6 +104,42 @@ def _sort_by_id(arrays: dict) -> dict:
     return out
 
 
+def open_h5(path):
+    """Open an output file for reading. A run still writing, or killed while
+    writing, leaves the file marked as open by its (single) writer; HDF5's
+    single-writer/multiple-reader mode reads it as it stands on disk."""
+    try:
+        return h5py.File(path, "r")
+    except OSError:
+        return h5py.File(path, "r", swmr=True)
+
+
+def _complete_rows(group, names, path):
+    """Rows every dataset in ``names`` holds: a run stopped while appending one
+    sample (killed between two datasets' writes) leaves at most one dataset a
+    row ahead; that partial sample is left out. A larger mismatch is an error."""
+    rows = [group[n].shape[0] for n in names]
+    if not rows:
+        return 0
+    if max(rows) - min(rows) > 1:
+        raise ValueError(f"{path}: datasets in /{group.name.strip('/')} disagree on their length "
+                         f"({dict(zip(names, rows))})")
+    return min(rows)
+
+
+def read_series(path, group):
+    """The datasets of a group that grows by one row per sample (/trace,
+    /coulomb, ...) as a dict of float64 arrays cut to their complete rows, or
+    None if the file has no such group."""
+    with open_h5(path) as h5:
+        if group not in h5:
+            return None
+        g = h5[group]
+        names = [k for k in g.keys() if isinstance(g[k], h5py.Dataset)]
+        n = _complete_rows(g, names, path)
+        return {k: g[k][:n].astype(np.float64) for k in names}
+
+
 def read_run(path) -> Run:
     """Read a granular-frames HDF5 file.
 
@@ -114,7 +150,7 @@ def read_run(path) -> Run:
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
     try:
-        h5 = h5py.File(path, "r")
+        h5 = open_h5(path)
     except OSError as exc:
         raise ValueError(f"{path}: not an HDF5 file ({exc})") from None
 
@@ -145,7 +181,8 @@ def read_run(path) -> Run:
         missing = [n for n in FRAME_DATASETS if n not in g]
         if missing:
             fail(f"missing dataset(s) in /frames: {', '.join(missing)}")
-        raw = {n: g[n][()] for n in FRAME_DATASETS}
+        n_complete = _complete_rows(g, FRAME_DATASETS + (("force",) if "force" in g else ()), path)
+        raw = {n: g[n][:n_complete] for n in FRAME_DATASETS}
         species_names = tuple(_decode(g.attrs.get("species_names", np.array([]))) or ())
 
         n_frames = raw["time"].shape[0]
@@ -179,7 +216,9 @@ def read_run(path) -> Run:
             missing = [n for n in PROFILE_DATASETS if n not in p]
             if missing:
                 fail(f"missing dataset(s) in /profile: {', '.join(missing)}")
-            profile = Profile(*(p[n][()].astype(np.float64) for n in PROFILE_DATASETS))
+            n_prof = _complete_rows(p, ("time", "small_fraction"), path)
+            profile = Profile(p["time"][:n_prof].astype(np.float64), p["edges"][()].astype(np.float64),
+                              p["small_fraction"][:n_prof].astype(np.float64))
             n_slices = profile.edges.shape[0] - 1
             if profile.small_fraction.shape != (profile.time.shape[0], n_slices):
                 fail(f"/profile/small_fraction has shape {profile.small_fraction.shape}, "

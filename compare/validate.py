@@ -17,7 +17,6 @@ import json
 import math
 import os
 import subprocess
-import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -202,8 +201,8 @@ def run_all(jobs, lanes=2, log=print):
 
 
 def steps_and_particles(path):
-    import h5py
-    with h5py.File(path, "r") as h5:
+    from .reader import open_h5
+    with open_h5(path) as h5:
         st = h5["frames/step"][()]
         n = h5["frames/id"].shape[1]
     return int(st[-1]) if st.size else 0, int(n)

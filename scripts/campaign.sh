@@ -3,7 +3,9 @@
 #   scripts/campaign.sh JOBFILE [LANES]
 # JOBFILE holds one job per line: OUTPUT.h5 SCENE [granular run options...]
 # A job whose OUTPUT.h5.done exists is skipped, so the campaign can be
-# restarted; each job writes OUTPUT.log beside its output.
+# restarted; a job interrupted after its first checkpoint (OUTPUT.h5.ckpt)
+# continues from it (--resume), any other leftover is started again (--force).
+# Each job writes OUTPUT.log beside its output.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 jobs="$1"; lanes="${2:-2}"
@@ -11,8 +13,9 @@ run_one() {
   out="$1"; shift; scene="$1"; shift
   [ -e "$out.done" ] && exit 0
   mkdir -p "$(dirname "$out")"
-  # --force: a leftover from an interrupted attempt (no .done) is replaced
-  if nice -n 10 "$here/build/granular" run "$scene" -o "$out" --force --threads 1 -q "$@" >"${out%.h5}.log" 2>&1; then
+  mode=--force
+  [ -e "$out" ] && [ -e "$out.ckpt" ] && mode=--resume
+  if nice -n 10 "$here/build/granular" run "$scene" -o "$out" $mode --threads 1 -q "$@" >>"${out%.h5}.log" 2>&1; then
     touch "$out.done"
   else
     echo "failed: $out (see ${out%.h5}.log)" >&2

@@ -125,6 +125,7 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
     observe(true);
   }
   Checkpointer checkpoints(ctl);
+  if (out) out->start_swmr();
   sim.timers.reset();
   const auto t0 = std::chrono::steady_clock::now();
   auto last = t0;

@@ -142,6 +142,7 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
     observe(false);
   }
   Checkpointer checkpoints(ctl);
+  if (out) out->start_swmr();
   sim.timers.reset();
   const auto t0 = std::chrono::steady_clock::now();
   auto last_print = t0;

@@ -13,12 +13,21 @@ void check(herr_t e, const std::string& what, const std::string& path) {
 H5Output::H5Output(const std::string& path, int dim, std::int64_t n, bool with_force, const RowCounts* resume)
     : path_(path), dim_(dim), n_(n), with_force_(with_force), resuming_(resume != nullptr) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions below, not stderr dumps
+  // The HDF5 1.10 format, which single-writer/multiple-reader mode needs (start_swmr()).
+  hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+  H5Pset_libver_bounds(fapl, H5F_LIBVER_LATEST, H5F_LIBVER_LATEST);
   if (resuming_) {
     resume_rows_ = *resume;
-    file_ = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    // A writer that was killed leaves the file marked "open for writing"; clear
+    // the mark as the h5clear tool does (its file-access property).
+    hbool_t clear = true;
+    H5Pset(fapl, "clear_status_flags", &clear);
+    file_ = H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl);
+    H5Pclose(fapl);
     if (file_ < 0) throw std::runtime_error(path + ": cannot open the output file to resume it (missing or damaged)");
   } else {
-    file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+    H5Pclose(fapl);
     if (file_ < 0) throw std::runtime_error(path + ": cannot create the output file");
   }
   frames_ = group("frames");
@@ -38,7 +47,14 @@ H5Output::H5Output(const std::string& path, int dim, std::int64_t n, bool with_f
   attr("dim", std::int64_t{dim});
 }
 
+void H5Output::start_swmr() {
+  if (swmr_) return;
+  check(H5Fstart_swmr_write(file_), "switching to single-writer/multiple-reader mode", path_);
+  swmr_ = true;
+}
+
 hid_t H5Output::group(const std::string& name) {
+  if (swmr_) throw std::logic_error(path_ + ": group " + name + " declared after start_swmr()");
   hid_t g = resuming_ && H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0
                 ? H5Gopen2(file_, name.c_str(), H5P_DEFAULT)
                 : H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
@@ -217,13 +233,19 @@ void write_scalar_attr(hid_t obj, const std::string& name, hid_t type, T value) 
 }  // namespace
 
 void H5Output::attr(const std::string& name, const std::string& value) {
+  if (swmr_) throw std::logic_error(path_ + ": attribute " + name + " written after start_swmr()");
   write_string_attr(file_, name, {value}, true);
 }
-void H5Output::attr(const std::string& name, double value) { write_scalar_attr(file_, name, H5T_NATIVE_DOUBLE, value); }
+void H5Output::attr(const std::string& name, double value) {
+  if (swmr_) throw std::logic_error(path_ + ": attribute " + name + " written after start_swmr()");
+  write_scalar_attr(file_, name, H5T_NATIVE_DOUBLE, value);
+}
 void H5Output::attr(const std::string& name, std::int64_t value) {
+  if (swmr_) throw std::logic_error(path_ + ": attribute " + name + " written after start_swmr()");
   write_scalar_attr(file_, name, H5T_NATIVE_INT64, value);
 }
 void H5Output::group_attr(const std::string& group, const std::string& name, const std::vector<std::string>& values) {
+  if (swmr_) throw std::logic_error(path_ + ": attribute " + name + " written after start_swmr()");
   hid_t g = H5Gopen2(file_, group.c_str(), H5P_DEFAULT);
   write_string_attr(g, name, values, values.size() == 1);
   H5Gclose(g);

@@ -51,6 +51,13 @@ class H5Output {
   const std::string& path() const { return path_; }
   RowCounts rows() const;
 
+  // From here on the file only grows by appended rows (no new groups, datasets
+  // or attributes), in HDF5's single-writer/multiple-reader mode: its writes
+  // are ordered so that the file on disk is consistent at every moment, and a
+  // run killed at any point leaves a file that opens (readers: h5py's
+  // swmr=True, as compare.reader does) and holds every row flushed.
+  void start_swmr();
+
  private:
   struct Appendable {
     std::string name;  // path in the file
@@ -75,6 +82,7 @@ class H5Output {
   Appendable p_time_, p_frac_, f_force_;
   bool with_force_ = false;
   bool resuming_ = false;
+  bool swmr_ = false;
   RowCounts resume_rows_;  // rows to cut each dataset back to, when resuming
   struct Series {
     hid_t group = -1;
