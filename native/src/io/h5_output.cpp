@@ -11,7 +11,7 @@ void check(herr_t e, const std::string& what, const std::string& path) {
 }  // namespace
 
 H5Output::H5Output(const std::string& path, int dim, std::int64_t n, bool with_force, const RowCounts* resume)
-    : path_(path), dim_(dim), n_(n), with_force_(with_force), resuming_(resume != nullptr) {
+    : path_(path), with_force_(with_force), resuming_(resume != nullptr) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions below, not stderr dumps
   // The HDF5 1.10 format, which single-writer/multiple-reader mode needs (start_swmr()).
   hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);

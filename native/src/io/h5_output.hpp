@@ -75,8 +75,6 @@ class H5Output {
                    const std::vector<double>& w);
 
   std::string path_;
-  int dim_;
-  std::int64_t n_;
   hid_t file_ = -1, frames_ = -1, profile_ = -1;
   Appendable f_time_, f_step_, f_id_, f_species_, f_diam_, f_pos_, f_vel_, f_ang_;
   Appendable p_time_, p_frac_, f_force_;

@@ -106,6 +106,21 @@ BoxScene read_fields(SceneFile& f) {
                             ") with its placement clearance (" + num(2.0 * s.radius_max + 0.1) + ")");
   if (s.wall_spacing > 2.0 * s.wall_radius + 2.0 * s.radius_min)
     f.fail("box.wall_spacing", "leaves gaps wider than the smallest grain");
+  // Limits (scene_file.hpp), before box_particles counts lattice rows and wall
+  // particles in integers.
+  if (static_cast<double>(s.count) > kMaxParticles)
+    f.fail("particles.count", "more than one run can hold (" + num(kMaxParticles) + ")");
+  const double pitch = 2.0 * s.radius_max + 0.1, per_row = std::max(1.0, std::floor(s.width / pitch));
+  const double packed = std::ceil(static_cast<double>(s.count) / per_row) * pitch;
+  const double walls = (s.width + 2.0 * s.wall_radius) / s.wall_spacing +
+                       2.0 * (std::max(s.wall_height, packed) + s.wall_radius) / s.wall_spacing;
+  if (walls > kMaxParticles)
+    f.fail(s.wall_height > packed ? "box.wall_height" : "box.width",
+           "the walls would need about " + num(walls) + " wall particles (box.wall_spacing " + num(s.wall_spacing) +
+               "), more than one run can hold (" + num(kMaxParticles) + ")");
+  if ((s.settle + s.duration) / s.dt > kMaxSteps)
+    f.fail("run.duration", "would take " + num((s.settle + s.duration) / s.dt) + " steps (integrator.dt " +
+                               num(s.dt) + "), more than " + num(kMaxSteps));
   return s;
 }
 

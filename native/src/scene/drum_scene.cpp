@@ -137,7 +137,21 @@ DrumScene read_fields(SceneFile& f) {
   f.text("paper.figure", "");
   f.text("paper.note", "");
 
-  check_fits(f, s);
+  // Limits (scene_file.hpp): the fill lattice (constant (4/rho)^(1/3)) and the
+  // run must stay countable before anything is built.
+  const double lattice = std::cbrt(4.0 / s.fill_density);
+  const double estimate = s.fill_density * 0.25 * M_PI * s.diameter * s.diameter * s.length;
+  if (estimate > kMaxParticles)
+    f.fail("drum.length", "the drum would hold about " + num(estimate) + " particles (drum.diameter " +
+                              num(s.diameter) + ", particles.fill_density " + num(s.fill_density) +
+                              "), more than one run can (" + num(kMaxParticles) + ")");
+  if (s.diameter / lattice > 1e6 || s.length / lattice > 1e7)
+    f.fail("particles.fill_density", "too sparse for the drum's size: the fill lattice would have more than 1e6 "
+                                     "cells across or 1e7 along it");
+  if (s.rotations * s.rotation_period() / s.dt > kMaxSteps)
+    f.fail("run.rotations", "would take " + num(s.rotations * s.rotation_period() / s.dt) +
+                                " steps (integrator.dt " + num(s.dt) + "), more than " + num(kMaxSteps));
+  check_fits(f, s);  // builds the particles
   return s;
 }
 

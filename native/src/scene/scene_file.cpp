@@ -139,7 +139,12 @@ SceneFile::SceneFile(const std::string& path, const std::vector<std::string>& ov
 SceneFile SceneFile::from_text(const std::string& text, const std::string& name) {
   SceneFile f;
   f.path_ = name;
-  f.table_ = toml::parse(text, name);
+  try {
+    f.table_ = toml::parse(text, name);
+  } catch (const toml::parse_error& e) {
+    throw SceneError(name, static_cast<long>(e.source().begin.line), "",
+                     "not a valid TOML file: " + std::string(e.description()));
+  }
   return f;
 }
 

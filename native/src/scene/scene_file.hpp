@@ -15,6 +15,12 @@
 
 namespace granular {
 
+// What one run can hold: particles (about 0.5 kB each with the neighbour list,
+// so 5e7 fill this machine's 24 GiB) and steps (counted in a 64-bit integer
+// with room to spare). Scenes beyond them are refused when read.
+constexpr double kMaxParticles = 5e7;
+constexpr double kMaxSteps = 1e15;
+
 class SceneError : public std::runtime_error {
  public:
   // "file:line: key: reason"; line 0 (a default, a --set override, a missing

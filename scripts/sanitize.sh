@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Checking builds, with clang (scripts/setup.sh installs it):
+#  1. AddressSanitizer + UndefinedBehaviorSanitizer: every native test, which
+#     includes the replay of the scene fuzzer's corpus (tests/fuzz/corpus/).
+#  2. ThreadSanitizer on the OpenMP force loop: the multi-threaded tests, with
+#     LLVM's OpenMP runtime and its TSan tool (archer), so that the runtime's own
+#     synchronisation is understood.
+# Any report fails the script (-fno-sanitize-recover, halt_on_error).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+jobs="$(nproc)"
+common=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DPython3_EXECUTABLE=/usr/bin/python3 -DCMAKE_C_COMPILER=clang
+  -DCMAKE_CXX_COMPILER=clang++)
+
+echo "sanitize: AddressSanitizer + UndefinedBehaviorSanitizer build (build-asan)"
+cmake -S . -B build-asan "${common[@]}" -DGRANULAR_SANITIZE=address,undefined >/dev/null
+cmake --build build-asan -j"$jobs" 2>&1 | grep -E "error|warning:" || true
+(cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --output-on-failure -j"$jobs")
+
+echo "sanitize: ThreadSanitizer build (build-tsan)"
+cmake -S . -B build-tsan "${common[@]}" -DGRANULAR_SANITIZE=thread >/dev/null
+tsan_tests=(test_determinism test_checkpoint test_neighbors test_two_d)
+cmake --build build-tsan -j"$jobs" --target "${tsan_tests[@]}" 2>&1 | grep -E "error|warning:" || true
+archer="$(ls /usr/lib/llvm-*/lib/libarcher.so | tail -n 1)"
+for t in "${tsan_tests[@]}"; do
+  echo "sanitize: $t under ThreadSanitizer (2 threads)"
+  (cd build-tsan && OMP_NUM_THREADS=2 OMP_TOOL_LIBRARIES="$archer" \
+    TSAN_OPTIONS="halt_on_error=1 ignore_noninstrumented_modules=1 second_deadlock_stack=1" \
+    GRANULAR_SOURCE_DIR="$PWD/.." "tests/native/$t")
+done
+echo "sanitize: clean"

@@ -1,0 +1,49 @@
+// One fuzz input through the scene loader, as `granular run` would take it:
+// parse the text, pick the reader by scene.kind, read and validate every key,
+// and (when the scene is small enough to build quickly) place the particles
+// and derive the mapped laws. A refusal is a SceneError; any other exception,
+// a crash or a sanitizer report is a bug.
+// Used by the libFuzzer target (scene_fuzzer.cpp) and the corpus replay test
+// (tests/native/test_fuzz_corpus.cpp).
+#pragma once
+#include <cmath>
+#include <string>
+
+#include "scene/box_scene.hpp"
+#include "scene/drum_scene.hpp"
+#include "scene/law_mapping.hpp"
+#include "scene/scene_file.hpp"
+
+namespace granular::fuzz {
+
+// Returns true if the scene was accepted.
+inline bool load_scene_text(const std::string& text) {
+  try {
+    SceneFile f = SceneFile::from_text(text, "fuzz.toml");
+    const std::string kind = f.peek_text("scene.kind");
+    if (kind == "drum") {
+      const DrumScene s = read_drum_scene(f);
+      const double volume = 0.25 * M_PI * s.diameter * s.diameter * s.length;
+      if (volume * s.fill_density < 3000.0) {
+        const auto p = drum_particles(s);
+        (void)map_rapaport_to_linear(s);
+        return p.size() > 0;
+      }
+      return true;
+    }
+    if (kind == "shaken_box") {
+      const BoxScene s = read_box_scene(f);
+      if (s.count < 3000 && s.width < 500.0) {
+        std::vector<Eigen::Vector2d> anchors;
+        const auto p = box_particles(s, anchors);
+        return p.size() > 0;
+      }
+      return true;
+    }
+    return false;
+  } catch (const SceneError&) {
+    return false;
+  }
+}
+
+}  // namespace granular::fuzz
