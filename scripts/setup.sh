@@ -9,7 +9,8 @@ PACKAGES=(cmake g++ make pkg-config
   libeigen3-dev libhdf5-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libgtest-dev
   python3-numpy python3-scipy python3-h5py python3-matplotlib python3-pytest
   lammps python3-lammps liblammps-dev openmpi-bin
-  yade chromium)
+  yade chromium
+  clang libclang-rt-14-dev libomp-dev)  # scripts/sanitize.sh, scripts/fuzz.sh
 
 missing=()
 for p in "${PACKAGES[@]}"; do

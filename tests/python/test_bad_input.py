@@ -33,7 +33,8 @@ def granular(*args, cwd=ROOT):
 
 
 def expectation(path):
-    m = re.match(r"# expect: (\S+) \| (.+)$", path.read_text().splitlines()[0])
+    # KEY may carry " (--set)": the value came from an override the driver passes
+    m = re.match(r"# expect: (\S+(?: \(--set\))?) \| (.+)$", path.read_text().splitlines()[0])
     assert m, f"{path}: the first line must be '# expect: KEY | FRAGMENT'"
     return m.group(1), m.group(2).strip()
 

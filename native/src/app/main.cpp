@@ -102,49 +102,53 @@ nlohmann::json info_json(const Loaded& l) {
     d["steps_total"] = s.steps_per(s.rotations);
     // The linear law mapped from Rapaport's (what LAMMPS runs, and the native
     // engine with contact.law = "linear"): docs/model_mapping.md.
-    const LinearMapping m = map_rapaport_to_linear(s);
-    nlohmann::json lin;
-    auto coeff = [](const LinearLaw<3>::Coeff& c) {
-      return nlohmann::json{{"kn", c.kn}, {"gamma_n", c.gamma_n}, {"xgamma_t", c.xgamma_t}, {"mu", c.mu}};
-    };
-    auto col = [](const Collision& c) {
-      return nlohmann::json{{"restitution", c.restitution}, {"contact_time", c.contact_time}};
-    };
-    const char* pairs[3] = {"small_small", "small_big", "big_big"};
-    const char* species[2] = {"small", "big"};
-    for (int k = 0; k < 3; ++k) {
-      const int a = k == 2 ? 1 : 0, b = k == 0 ? 0 : 1;
-      lin["pair"][pairs[k]] = coeff(m.law.pair[a * 2 + b]);
-      lin["pair"][pairs[k]]["m_eff"] = m.pair_meff[k];
-      lin["pair"][pairs[k]]["rapaport"] = col(m.pair_collision[k]);
-      lin["pair"][pairs[k]]["linear"] = col(m.pair_linear[k]);
+    try {
+      const LinearMapping m = map_rapaport_to_linear(s);
+      nlohmann::json lin;
+      auto coeff = [](const LinearLaw<3>::Coeff& c) {
+        return nlohmann::json{{"kn", c.kn}, {"gamma_n", c.gamma_n}, {"xgamma_t", c.xgamma_t}, {"mu", c.mu}};
+      };
+      auto col = [](const Collision& c) {
+        return nlohmann::json{{"restitution", c.restitution}, {"contact_time", c.contact_time}};
+      };
+      const char* pairs[3] = {"small_small", "small_big", "big_big"};
+      const char* species[2] = {"small", "big"};
+      for (int k = 0; k < 3; ++k) {
+        const int a = k == 2 ? 1 : 0, b = k == 0 ? 0 : 1;
+        lin["pair"][pairs[k]] = coeff(m.law.pair[a * 2 + b]);
+        lin["pair"][pairs[k]]["m_eff"] = m.pair_meff[k];
+        lin["pair"][pairs[k]]["rapaport"] = col(m.pair_collision[k]);
+        lin["pair"][pairs[k]]["linear"] = col(m.pair_linear[k]);
+      }
+      for (int a = 0; a < 2; ++a) {
+        lin["wall"][species[a]] = coeff(m.law.wall[a]);
+        lin["wall"][species[a]]["m_eff"] = m.wall_meff[a];
+        lin["wall"][species[a]]["rapaport"] = col(m.wall_collision[a]);
+        lin["wall"][species[a]]["linear"] = col(m.wall_linear[a]);
+      }
+      lin["impact_speed"] = m.impact_speed;
+      lin["static_load"] = m.static_load;
+      lin["diameter_scale"] = m.diameter_scale;
+      lin["wall_inset"] = m.wall_inset;
+      lin["contact_diameter"] = s.diameter - 2.0 * m.wall_inset;
+      lin["contact_length"] = s.length - (s.capped ? 2.0 * m.wall_inset : 0.0);
+      d["linear_law"] = lin;
+      const ViscElMapping v = map_linear_to_viscel(s, m);
+      nlohmann::json ve;
+      for (int a = 0; a < 2; ++a) {
+        const auto& mt = v.law.mat[a];
+        ve["materials"][species[a]] = {{"kn", mt.kn}, {"cn_per_mass", mt.cn_per_mass}, {"cs_per_mass", mt.cs_per_mass}};
+        const auto& w = v.law.wall[a];
+        ve["wall_materials"][species[a]] = {{"kn", w.kn}, {"cn", w.cn}, {"cs", w.cs}};
+        ve["mean_mass"][species[a]] = v.mean_mass[a];
+      }
+      ve["infeasible"] = v.infeasible;
+      ve["rule"] = "YADE ViscElMat per particle: kn, cn = cn_per_mass m_i, cs = cs_per_mass m_i; walls absolute; "
+                   "pair value 1/(1/a + 1/b), 0 = absent (contact/viscel.hpp)";
+      d["viscel_law"] = ve;
+    } catch (const MappingError& e) {
+      d["linear_law"] = {{"infeasible", e.what()}};  // refused if the scene's law needs it
     }
-    for (int a = 0; a < 2; ++a) {
-      lin["wall"][species[a]] = coeff(m.law.wall[a]);
-      lin["wall"][species[a]]["m_eff"] = m.wall_meff[a];
-      lin["wall"][species[a]]["rapaport"] = col(m.wall_collision[a]);
-      lin["wall"][species[a]]["linear"] = col(m.wall_linear[a]);
-    }
-    lin["impact_speed"] = m.impact_speed;
-    lin["static_load"] = m.static_load;
-    lin["diameter_scale"] = m.diameter_scale;
-    lin["wall_inset"] = m.wall_inset;
-    lin["contact_diameter"] = s.diameter - 2.0 * m.wall_inset;
-    lin["contact_length"] = s.length - (s.capped ? 2.0 * m.wall_inset : 0.0);
-    d["linear_law"] = lin;
-    const ViscElMapping v = map_linear_to_viscel(s, m);
-    nlohmann::json ve;
-    for (int a = 0; a < 2; ++a) {
-      const auto& mt = v.law.mat[a];
-      ve["materials"][species[a]] = {{"kn", mt.kn}, {"cn_per_mass", mt.cn_per_mass}, {"cs_per_mass", mt.cs_per_mass}};
-      const auto& w = v.law.wall[a];
-      ve["wall_materials"][species[a]] = {{"kn", w.kn}, {"cn", w.cn}, {"cs", w.cs}};
-      ve["mean_mass"][species[a]] = v.mean_mass[a];
-    }
-    ve["infeasible"] = v.infeasible;
-    ve["rule"] = "YADE ViscElMat per particle: kn, cn = cn_per_mass m_i, cs = cs_per_mass m_i; walls absolute; "
-                 "pair value 1/(1/a + 1/b), 0 = absent (contact/viscel.hpp)";
-    d["viscel_law"] = ve;
   } else {
     const BoxScene& s = *l.box;
     std::vector<Eigen::Vector2d> anchors;

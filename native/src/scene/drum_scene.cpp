@@ -1,5 +1,7 @@
 #include "scene/drum_scene.hpp"
 
+#include "scene/law_mapping.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -152,6 +154,13 @@ DrumScene read_fields(SceneFile& f) {
     f.fail("run.rotations", "would take " + num(s.rotations * s.rotation_period() / s.dt) +
                                 " steps (integrator.dt " + num(s.dt) + "), more than " + num(kMaxSteps));
   check_fits(f, s);  // builds the particles
+  if (s.law != "rapaport") {
+    try {
+      (void)map_rapaport_to_linear(s);
+    } catch (const MappingError& e) {
+      f.fail("contact.law", "\"" + s.law + "\" is mapped from Rapaport's law, which cannot be done here: " + e.what());
+    }
+  }
   return s;
 }
 

@@ -11,6 +11,7 @@
 // 2^(1/6) d (where Rapaport's force vanishes), and the walls move in by
 // 2^(1/6) d_w / 2 so that contacts begin where they begin in Rapaport's model.
 #pragma once
+#include <stdexcept>
 #include <string>
 #include <vector>
 #include "contact/linear.hpp"
@@ -19,6 +20,13 @@
 #include "scene/drum_scene.hpp"
 
 namespace granular {
+
+// The scene's Rapaport collisions have no linear equivalent (a collision that
+// does not rebound); the message says which.
+class MappingError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 struct Collision {
   double restitution = 0.0;   // separation speed / approach speed
