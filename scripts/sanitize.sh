@@ -15,8 +15,10 @@ common=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DPython3_EXECUTABLE=/usr/bin/python3 
 echo "sanitize: AddressSanitizer + UndefinedBehaviorSanitizer build (build-asan)"
 cmake -S . -B build-asan "${common[@]}" -DGRANULAR_SANITIZE=address,undefined >/dev/null
 cmake --build build-asan -j"$jobs" 2>&1 | grep -E "error|warning:" || true
+# Energy.ConservedWithoutDissipation is left out: 10^6 steps of the same pair
+# and wall code the other tests run, ten minutes under the sanitizers.
 (cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-  ctest --output-on-failure -j"$jobs")
+  ctest --output-on-failure -j"$jobs" -E '^Energy\.ConservedWithoutDissipation$')
 
 echo "sanitize: ThreadSanitizer build (build-tsan)"
 cmake -S . -B build-tsan "${common[@]}" -DGRANULAR_SANITIZE=thread >/dev/null

@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
-# Every test: C++ (GoogleTest) and Python (pytest) through CTest, then the
-# cross-engine quick suite and its report in a browser.
+# Every test: C++ (GoogleTest) and Python (pytest) through CTest, the native
+# tests again under AddressSanitizer + UndefinedBehaviorSanitizer and the
+# threaded ones under ThreadSanitizer, then the cross-engine quick suite and
+# its report in a browser.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 cd build
 ctest --output-on-failure -j"$(nproc)"
 cd ..
+bash scripts/sanitize.sh
 # The cross-engine quick suite (docs/tolerances.md): the native engine, LAMMPS
 # and YADE on a short drum and the box below and above the convection onset;
 # exits non-zero when two engines running the same model disagree.

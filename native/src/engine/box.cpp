@@ -1,6 +1,7 @@
 #include "engine/box.hpp"
 
 #include "engine/coulomb_census.hpp"
+#include "engine/health.hpp"
 #include "engine/run_control.hpp"
 
 #include <algorithm>
@@ -65,8 +66,17 @@ void check_contained(const Sim& sim, const BoxScene& s) {
     const auto& x = sim.p.x[i];
     if (std::abs(x.x()) > xw || x.y() < floor - s.wall_radius || !std::isfinite(x.squaredNorm())) {
       std::ostringstream os;
+      double wall_top = -INFINITY;  // highest side-wall particle's top, at rest
+      for (const auto& a : m.anchor) wall_top = std::max(wall_top, a.y() + s.wall_radius);
+      wall_top += m.y(sim.time);
       os << "grain id " << sim.p.id[i] << " escaped the box at t = " << sim.time << " s, position (" << x.x()
-         << ", " << x.y() << ") cm: the walls must hold every grain (close the wall-particle gaps or reduce dt)";
+         << ", " << x.y() << ") cm";
+      if (std::abs(x.x()) > xw && x.y() > wall_top - 2.0 * s.radius_max)
+        os << ": it flew over a side wall (top at y = " << wall_top
+           << " cm); raise box.wall_height or shake less hard (shaking.frequency, shaking.amplitude)";
+      else
+        os << ": it passed through the walls; close the wall-particle gaps (box.wall_spacing) or reduce "
+              "integrator.dt (" << sim.stability_hint << ")";
       throw UnstableError(os.str());
     }
   }
@@ -79,8 +89,27 @@ std::size_t big_index(const Sim& sim) {
   return sim.p.size();
 }
 
+// What the box can drive (engine/health.hpp): the shaker's peak speed, free
+// fall from the top of the walls; and the shortest contact, two of the
+// lightest grains under Eq. (2): pi / sqrt(Y / m_eff - (gamma_N / 2)^2).
+HealthLimits box_health(const BoxScene& s) {
+  HealthLimits h;
+  const double shaker = 2.0 * M_PI * std::max(s.frequency, s.ramp_to) * s.amplitude;
+  const double fall = std::sqrt(2.0 * s.gravity * s.wall_height);
+  h.max_speed = 8.0 * std::max(shaker, fall);
+  std::ostringstream os;
+  os << "shaker speed " << shaker << ", free fall from the top of the walls " << fall << ", x8";
+  h.speed_sources = os.str();
+  h.dt = s.dt;
+  const double m_eff = 0.5 * s.mass(s.radius_min), w2 = s.young / m_eff - 0.25 * s.gamma_n * s.gamma_n;
+  h.contact_period = w2 > 0 ? M_PI / std::sqrt(w2) : 0.0;
+  return h;
+}
+
 template <class Sim>
 RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, const RunControl& ctl) {
+  const HealthLimits health = box_health(s);
+  health.apply(sim);
   const long total = std::lround((s.settle + s.duration) / s.dt);
   const long settle_steps = std::lround(s.settle / s.dt);
   const bool has_big = big_index(sim) < sim.p.size();
@@ -132,6 +161,7 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
   const double n = static_cast<double>(sim.p.size());
   for (long k = start + 1; k <= total; ++k) {
     sim.step();
+    if (k % health.every == 0 || k == total) check_health(sim, health);
     observe(k == settle_steps || k == total);
     checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total);
     if (progress && (k % 500 == 0 || k == total)) {

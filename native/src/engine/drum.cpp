@@ -10,6 +10,7 @@
 #include <type_traits>
 
 #include "engine/coulomb_census.hpp"
+#include "engine/health.hpp"
 #include "engine/run_control.hpp"
 #include "scene/law_mapping.hpp"
 
@@ -103,8 +104,35 @@ void check_inside(const Sim& sim, const DrumScene& s) {
   }
 }
 
+// What the drum can drive (engine/health.hpp): the wall's speed, free fall
+// across the drum, the initial and matching speeds; and the shortest contact.
+template <class Sim>
+HealthLimits drum_health(const DrumScene& s) {
+  HealthLimits h;
+  const double wall = std::abs(s.omega) * 0.5 * s.diameter, fall = std::sqrt(2.0 * s.gravity * s.diameter);
+  const double v = std::max({wall, fall, s.initial_speed, s.impact_speed});
+  h.max_speed = 8.0 * v;
+  std::ostringstream os;
+  os << "wall speed " << wall << ", free fall across the drum " << fall << ", x8";
+  h.speed_sources = os.str();
+  h.dt = s.dt;
+  try {
+    const LinearMapping m = map_rapaport_to_linear(s);
+    constexpr bool rapaport = std::is_same_v<decltype(Sim::law), RapaportLaw<3>>;
+    double t = INFINITY;
+    for (int k = 0; k < 3; ++k) t = std::min(t, (rapaport ? m.pair_collision[k] : m.pair_linear[k]).contact_time);
+    for (int a = 0; a < 2; ++a) t = std::min(t, (rapaport ? m.wall_collision[a] : m.wall_linear[a]).contact_time);
+    h.contact_period = t;
+  } catch (const MappingError&) {
+    h.contact_period = 0.0;  // overdamped: no period to quote
+  }
+  return h;
+}
+
 template <class Sim>
 RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, const RunControl& ctl) {
+  const HealthLimits health = drum_health<Sim>(s);
+  health.apply(sim);
   const long total = s.steps_per(s.rotations);
   const auto edges = slice_edges(s);
   const double period = s.rotation_period();
@@ -150,6 +178,7 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
   for (long k = start + 1; k <= total; ++k) {
     sim.step();
     const bool fin = k == total;
+    if (k % health.every == 0 || fin) check_health(sim, health);
     observe(fin);
     checkpoints.after_step(sim, out, {snap_k, prof_k}, fin);
     if (progress && (k % 200 == 0 || fin)) {

@@ -8,6 +8,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 #include <tuple>
 #include <vector>
 
@@ -42,6 +43,12 @@ class Simulation {
   double time = 0.0;
   long step_count = 0;
   PhaseTimers timers;
+  std::string stability_hint;  // the likely cause, for the unstable-run message (engine/health.hpp)
+  // No source in the scene drives a particle faster (engine/health.hpp): a
+  // faster one means energy growing without a source. Checked every step, at
+  // no cost, with the neighbour-list move limit.
+  double max_speed = std::numeric_limits<double>::infinity();
+  std::string speed_sources;
 
   // Call once the store, box, law and walls are set: builds the list and the
   // forces at t = 0 that the first half kick needs.
@@ -145,7 +152,7 @@ class Simulation {
 
   // Unstable if any particle moved further in one step than the skin allows
   // (contacts could be missed and Eq. (1) diverges), or if anything is not finite.
-  double max_step_move() const { return 0.5 * skin; }
+  double max_step_move() const { return std::min(0.5 * skin, max_speed * integrator.dt); }
 
  private:
   struct Stamps {
@@ -245,7 +252,6 @@ class Simulation {
   }
 
   void check_stable(const typename Integrator::DriftStats& st) const {
-    const double lim = max_step_move();
     if (stable(st)) return;
     // Find the culprit (only on failure).
     std::size_t worst = 0;
@@ -256,14 +262,19 @@ class Simulation {
       if (s > worst_v) { worst = i; worst_v = s; }
     }
     std::ostringstream os;
-    os << "simulation unstable (or time step too large) at step " << step_count + 1 << " (t = " << time + integrator.dt << "): particle id "
+    const double moved = std::sqrt(worst_v) * integrator.dt;
+    os << "simulation unstable at step " << step_count + 1 << " (t = " << time + integrator.dt << "): particle id "
        << p.id[worst] << " ";
     if (!std::isfinite(worst_v) || !std::isfinite(p.x[worst].squaredNorm()))
       os << "has a non-finite position or velocity";
-    else
-      os << "moved " << std::sqrt(worst_v) * integrator.dt << " in one step, more than the neighbour list allows (" << lim
+    else if (moved > 0.5 * skin)
+      os << "moved " << moved << " in one step, more than the neighbour list allows (" << 0.5 * skin
          << " = skin/2); speed " << std::sqrt(worst_v);
-    os << ". Reduce integrator.dt or check the contact parameters.";
+    else
+      os << "moves at " << std::sqrt(worst_v) << ", faster than anything in the scene drives it (" << speed_sources
+         << ", limit " << max_speed << "): energy is growing without a source";
+    os << ". " << (stability_hint.empty() ? "Reduce integrator.dt or check the contact parameters."
+                                          : "Likely cause: " + stability_hint + ".");
     throw UnstableError(os.str());
   }
 
