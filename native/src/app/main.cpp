@@ -10,6 +10,7 @@
 // output without --force, nothing to resume), 3 unstable run, 130/143 stopped
 // by SIGINT/SIGTERM after writing a checkpoint, 1 any other failure.
 #include <omp.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -179,6 +180,13 @@ void common_attrs(H5Output& out, const Loaded& l, const std::string& scene_path)
   out.attr("scene_toml", l.toml);
   out.attr("scene_json", l.json);
   out.attr("threads", static_cast<std::int64_t>(omp_get_max_threads()));
+}
+
+// Peak resident set size of this process (getrusage reports kilobytes on Linux).
+double peak_rss_bytes() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return 1024.0 * static_cast<double>(u.ru_maxrss);
 }
 
 struct RunOptions {
@@ -448,12 +456,16 @@ int main(int argc, char** argv) {
                        {"repeats", repeat},
                        {"speedup_vs_first", r.particle_steps_per_second / base},
                        {"seconds", r.seconds},
-                       {"steps", r.steps}});
+                       {"steps", r.steps},
+                       // peak resident memory of the process so far (the largest run measured), per particle
+                       {"peak_rss_bytes_per_particle", peak_rss_bytes() / static_cast<double>(r.particles)}});
         if (!bench_json)
-          std::printf("scene %s  threads %d  %.3e particle-steps/s  (median of %d, range %.3e-%.3e; x%.2f)\n%s",
+          std::printf("scene %s  threads %d  %.3e particle-steps/s  (median of %d, range %.3e-%.3e; x%.2f)  "
+                      "peak memory %.0f bytes/particle\n%s",
                       l.name().c_str(), t, r.particle_steps_per_second, repeat,
                       reps.front().particle_steps_per_second, reps.back().particle_steps_per_second,
-                      r.particle_steps_per_second / base, r.timing.c_str());
+                      r.particle_steps_per_second / base, peak_rss_bytes() / static_cast<double>(r.particles),
+                      r.timing.c_str());
       }
       if (bench_json) std::cout << res.dump(2) << "\n";
       return 0;
