@@ -59,20 +59,21 @@ def assert_bitwise_equal(a, b):
         assert x.tobytes() == y.tobytes(), f"{name} differs"
 
 
-@pytest.fixture(scope="module")
-def drum_ref(tmp_path_factory):
-    out = tmp_path_factory.mktemp("ref") / "drum.h5"
-    r = run(DRUM, DRUM_SETS, out)
+def uninterrupted(tmp_path_factory, scene, sets, name):
+    out = tmp_path_factory.mktemp("ref") / name
+    r = run(scene, sets, out)
     assert r.returncode == 0, r.stderr
     return out
+
+
+@pytest.fixture(scope="module")
+def drum_ref(tmp_path_factory):
+    return uninterrupted(tmp_path_factory, DRUM, DRUM_SETS, "drum.h5")
 
 
 @pytest.fixture(scope="module")
 def box_ref(tmp_path_factory):
-    out = tmp_path_factory.mktemp("ref") / "box.h5"
-    r = run(BOX, BOX_SETS, out)
-    assert r.returncode == 0, r.stderr
-    return out
+    return uninterrupted(tmp_path_factory, BOX, BOX_SETS, "box.h5")
 
 
 def start_and_wait_for_checkpoint(scene, sets, out, *extra):

@@ -143,16 +143,7 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
                    {sim.p.x[b].x(), sim.p.x[b].y()}, {sim.p.v[b].x(), sim.p.v[b].y()}});
     }
   };
-  long start = 0;
-  if (ctl.resume) {
-    restore(sim, *ctl.resume);
-    if (ctl.resume->counters.size() != 2) throw std::runtime_error(ctl.checkpoint + ": not a shaken-box checkpoint");
-    snap_k = ctl.resume->counters[0];
-    trace_k = ctl.resume->counters[1];
-    start = sim.step_count;
-  } else {
-    observe(true);
-  }
+  const long start = begin_run(sim, ctl, {&snap_k, &trace_k}, "shaken-box", [&] { observe(true); });
   Checkpointer checkpoints(ctl);
   if (out) out->start_swmr();
   sim.timers.reset();

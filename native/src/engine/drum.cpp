@@ -159,16 +159,7 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
     if (out && snap) out->frame(sim.time, sim.step_count, sim.p);
   };
   if (out) out->init_profile(edges);
-  long start = 0;
-  if (ctl.resume) {
-    restore(sim, *ctl.resume);
-    if (ctl.resume->counters.size() != 2) throw std::runtime_error(ctl.checkpoint + ": not a drum checkpoint");
-    snap_k = ctl.resume->counters[0];
-    prof_k = ctl.resume->counters[1];
-    start = sim.step_count;
-  } else {
-    observe(false);
-  }
+  const long start = begin_run(sim, ctl, {&snap_k, &prof_k}, "drum", [&] { observe(false); });
   Checkpointer checkpoints(ctl);
   if (out) out->start_swmr();
   sim.timers.reset();

@@ -39,6 +39,23 @@ class Interrupted : public std::runtime_error {
 void install_stop_handlers();
 int stop_signal();  // 0 if no stop was requested
 
+// Before a run loop: the state and output counters from ctl.resume, or else
+// the run's first output. Returns the step the loop continues after.
+template <class Sim, class FirstOutput>
+long begin_run(Sim& sim, const RunControl& ctl, std::initializer_list<long*> counters, const char* kind,
+               FirstOutput first_output) {
+  if (!ctl.resume) {
+    first_output();
+    return 0;
+  }
+  restore(sim, *ctl.resume);
+  if (ctl.resume->counters.size() != counters.size())
+    throw std::runtime_error(ctl.checkpoint + ": not a " + kind + " checkpoint");
+  auto saved = ctl.resume->counters.begin();
+  for (long* c : counters) *c = *saved++;
+  return sim.step_count;
+}
+
 class Checkpointer {
  public:
   explicit Checkpointer(const RunControl& ctl) : ctl_(ctl), last_(Clock::now()) {}
