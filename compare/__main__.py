@@ -6,6 +6,7 @@
     python3 -m compare table1 RUN_DIR -o docs/table1.md  the Table I reproduction
     python3 -m compare onset RUN.h5... [--within S]     shaken box: onset frequency over packings
     python3 -m compare bench [-o DIR] [--rounds N]      native against LAMMPS, interleaved, with ratios
+    python3 -m compare speed-accuracy -o DIR            binary-collision error against cost, per method
     python3 -m compare box-report --big RUN... --nobig RUN... [--ramp RUN...] [--height RUN...]
                        [--velocity RUN...] -o DIR      the shaken box's figures over many runs
 
@@ -102,6 +103,8 @@ def main(argv=None):
                     help="ramp: depth-averaged Phi (particles/cycle) above which convection counts as on")
     br.add_argument("--window", type=int, default=10, help="ramp: cycles per window")
     br.add_argument("-o", "--output", required=True, help="directory for the PNGs and box_report.json")
+    sa = sub.add_parser("speed-accuracy", help="binary-collision error against cost per law and integrator")
+    sa.add_argument("-o", "--output", required=True, help="directory for collision_sweep.json and the PNGs")
     va = sub.add_parser("validate", help="run the engines on a suite of scenes and write the agreement report")
     va.add_argument("--suite", choices=["quick", "full"], required=True)
     va.add_argument("-o", "--output", required=True, help="directory: runs/ (the cache), report.json, report.html")
@@ -116,6 +119,14 @@ def main(argv=None):
                        rows=args.rows.split(",") if args.rows else None,
                        log=lambda m: print(m, file=sys.stderr, flush=True))
         return 0 if rep["verdict"] == "pass" else 1
+
+    if args.command == "speed-accuracy":
+        from .speed_accuracy import report, table_markdown
+        rows, figs = report(args.output)
+        print(table_markdown(rows))
+        for f in figs:
+            print(f"wrote {f}", file=sys.stderr)
+        return 0
 
     if args.command == "box-report":
         from .box_report import box_report, summary_markdown
