@@ -23,12 +23,6 @@ frequency = 3.0
 duration = 1.0
 )";
 
-std::string num(double v) {
-  std::ostringstream os;
-  os << v;
-  return os.str();
-}
-
 BoxScene read_fields(SceneFile& f) {
   BoxScene s;
   f.choice("scene.kind", {"shaken_box"});
@@ -56,8 +50,8 @@ BoxScene read_fields(SceneFile& f) {
   s.radius_min = f.positive("particles.radius_min", f.number("particles.radius_min", 0.85));
   s.radius_max = f.positive("particles.radius_max", f.number("particles.radius_max", 1.15));
   if (s.radius_max < s.radius_min)
-    f.fail("particles.radius_max", "must be >= particles.radius_min (" + num(s.radius_min) + ", " +
-                                       f.origin("particles.radius_min") + "), got " + num(s.radius_max));
+    f.fail("particles.radius_max", "must be >= particles.radius_min (" + number_text(s.radius_min) + ", " +
+                                       f.origin("particles.radius_min") + "), got " + number_text(s.radius_max));
   s.density = f.positive("particles.density", f.number("particles.density", 1.0));
   s.mass_area = f.choice("particles.mass_rule", {"paper", "area"}, "paper") == "area";
   const long seed = f.integer("particles.seed", 1);
@@ -97,30 +91,30 @@ BoxScene read_fields(SceneFile& f) {
 
   f.text("paper.note", "");
   if (s.big && 2.0 * s.big_radius >= s.width)
-    f.fail("big.radius", "the big disk does not fit in the box: diameter " + num(2.0 * s.big_radius) +
-                             " >= box.width = " + num(s.width) + " (" + f.origin("box.width") + ")");
+    f.fail("big.radius", "the big disk does not fit in the box: diameter " + number_text(2.0 * s.big_radius) +
+                             " >= box.width = " + number_text(s.width) + " (" + f.origin("box.width") + ")");
   // box_particles places grains on a square lattice of pitch 2 R_max + 0.1.
   if (s.width < 2.0 * s.radius_max + 0.1)
-    f.fail("box.width", "too small for its particles: " + num(s.width) + " is narrower than one grain of radius " +
-                            num(s.radius_max) + " (particles.radius_max, " + f.origin("particles.radius_max") +
-                            ") with its placement clearance (" + num(2.0 * s.radius_max + 0.1) + ")");
+    f.fail("box.width", "too small for its particles: " + number_text(s.width) + " is narrower than one grain of radius " +
+                            number_text(s.radius_max) + " (particles.radius_max, " + f.origin("particles.radius_max") +
+                            ") with its placement clearance (" + number_text(2.0 * s.radius_max + 0.1) + ")");
   if (s.wall_spacing > 2.0 * s.wall_radius + 2.0 * s.radius_min)
     f.fail("box.wall_spacing", "leaves gaps wider than the smallest grain");
   // Limits (scene_file.hpp), before box_particles counts lattice rows and wall
   // particles in integers.
   if (static_cast<double>(s.count) > kMaxParticles)
-    f.fail("particles.count", "more than one run can hold (" + num(kMaxParticles) + ")");
+    f.fail("particles.count", "more than one run can hold (" + number_text(kMaxParticles) + ")");
   const double pitch = 2.0 * s.radius_max + 0.1, per_row = std::max(1.0, std::floor(s.width / pitch));
   const double packed = std::ceil(static_cast<double>(s.count) / per_row) * pitch;
   const double walls = (s.width + 2.0 * s.wall_radius) / s.wall_spacing +
                        2.0 * (std::max(s.wall_height, packed) + s.wall_radius) / s.wall_spacing;
   if (walls > kMaxParticles)
     f.fail(s.wall_height > packed ? "box.wall_height" : "box.width",
-           "the walls would need about " + num(walls) + " wall particles (box.wall_spacing " + num(s.wall_spacing) +
-               "), more than one run can hold (" + num(kMaxParticles) + ")");
+           "the walls would need about " + number_text(walls) + " wall particles (box.wall_spacing " + number_text(s.wall_spacing) +
+               "), more than one run can hold (" + number_text(kMaxParticles) + ")");
   if ((s.settle + s.duration) / s.dt > kMaxSteps)
-    f.fail("run.duration", "would take " + num((s.settle + s.duration) / s.dt) + " steps (integrator.dt " +
-                               num(s.dt) + "), more than " + num(kMaxSteps));
+    f.fail("run.duration", "would take " + number_text((s.settle + s.duration) / s.dt) + " steps (integrator.dt " +
+                               number_text(s.dt) + "), more than " + number_text(kMaxSteps));
   return s;
 }
 

@@ -39,12 +39,6 @@ gamma_s_sw = 1.0
 rotations = 1.0
 )";
 
-std::string num(double v) {
-  std::ostringstream os;
-  os << v;
-  return os.str();
-}
-
 // The initial lattice must hold the particles without overlap, inside the
 // wall, in a drum that has room for them (see drum_particles).
 void check_fits(const SceneFile& f, const DrumScene& s) {
@@ -57,32 +51,32 @@ void check_fits(const SceneFile& f, const DrumScene& s) {
   const double spacing = std::cbrt(4.0 / s.fill_density) / std::sqrt(2.0);
   if (spacing < need)
     f.fail("particles.fill_density",
-           "cannot be packed: at " + num(s.fill_density) + " particles per unit volume the lattice sites are " +
-               num(spacing) + " apart, less than the particle diameter " + num(need) + " (" +
+           "cannot be packed: at " + number_text(s.fill_density) + " particles per unit volume the lattice sites are " +
+               number_text(spacing) + " apart, less than the particle diameter " + number_text(need) + " (" +
                (need == d_max ? d_key : std::string("particles.small_diameter")) + ", " +
                f.origin(need == d_max ? d_key : "particles.small_diameter") + "); at most " +
-               num(std::sqrt(2.0) / (need * need * need)) + " for these particles");
+               number_text(std::sqrt(2.0) / (need * need * need)) + " for these particles");
   if (s.fill_margin >= 0.5 * s.diameter && f.origin("particles.fill_margin") != "default")
-    f.fail("particles.fill_margin", "leaves no room inside the drum (drum.diameter = " + num(s.diameter) + ", " +
+    f.fail("particles.fill_margin", "leaves no room inside the drum (drum.diameter = " + number_text(s.diameter) + ", " +
                                         f.origin("drum.diameter") + ")");
   if (0.5 * s.diameter - s.fill_margin < 0.5 * d_max)
-    f.fail("drum.diameter", "too small for its particles: " + num(s.diameter) + " leaves no room for a diameter " +
-                                num(d_max) + " inside particles.fill_margin = " + num(s.fill_margin) + " (" +
+    f.fail("drum.diameter", "too small for its particles: " + number_text(s.diameter) + " leaves no room for a diameter " +
+                                number_text(d_max) + " inside particles.fill_margin = " + number_text(s.fill_margin) + " (" +
                                 f.origin("particles.fill_margin") + ") of the wall");
   if (s.fill_margin < 0.5 * d_max)
-    f.fail("particles.fill_margin", num(s.fill_margin) + " lets particles of diameter " + num(d_max) +
+    f.fail("particles.fill_margin", number_text(s.fill_margin) + " lets particles of diameter " + number_text(d_max) +
                                         " start through the drum wall; it must be at least half the largest "
-                                        "diameter (" + num(0.5 * d_max) + ")");
+                                        "diameter (" + number_text(0.5 * d_max) + ")");
   const double reach = 2.0 * (std::pow(2.0, 1.0 / 6.0) * d_max + s.skin);
   if (!s.capped && s.length < reach)
     f.fail("drum.length", "a periodic drum must be at least twice the interaction range plus the neighbour skin "
-                          "long (" + num(reach) + "), got " + num(s.length));
+                          "long (" + number_text(reach) + "), got " + number_text(s.length));
   const std::size_t n = drum_particles(s).size();
   if (n < 2)
     f.fail(s.capped && s.length < s.diameter ? "drum.length" : "drum.diameter",
-           "too small for its particles: the initial lattice (fill density " + num(s.fill_density) +
-               ") places " + std::to_string(n) + " particle(s) in a drum of diameter " + num(s.diameter) +
-               " and length " + num(s.length));
+           "too small for its particles: the initial lattice (fill density " + number_text(s.fill_density) +
+               ") places " + std::to_string(n) + " particle(s) in a drum of diameter " + number_text(s.diameter) +
+               " and length " + number_text(s.length));
 }
 
 DrumScene read_fields(SceneFile& f) {
@@ -144,15 +138,15 @@ DrumScene read_fields(SceneFile& f) {
   const double lattice = std::cbrt(4.0 / s.fill_density);
   const double estimate = s.fill_density * 0.25 * M_PI * s.diameter * s.diameter * s.length;
   if (estimate > kMaxParticles)
-    f.fail("drum.length", "the drum would hold about " + num(estimate) + " particles (drum.diameter " +
-                              num(s.diameter) + ", particles.fill_density " + num(s.fill_density) +
-                              "), more than one run can (" + num(kMaxParticles) + ")");
+    f.fail("drum.length", "the drum would hold about " + number_text(estimate) + " particles (drum.diameter " +
+                              number_text(s.diameter) + ", particles.fill_density " + number_text(s.fill_density) +
+                              "), more than one run can (" + number_text(kMaxParticles) + ")");
   if (s.diameter / lattice > 1e6 || s.length / lattice > 1e7)
     f.fail("particles.fill_density", "too sparse for the drum's size: the fill lattice would have more than 1e6 "
                                      "cells across or 1e7 along it");
   if (s.rotations * s.rotation_period() / s.dt > kMaxSteps)
-    f.fail("run.rotations", "would take " + num(s.rotations * s.rotation_period() / s.dt) +
-                                " steps (integrator.dt " + num(s.dt) + "), more than " + num(kMaxSteps));
+    f.fail("run.rotations", "would take " + number_text(s.rotations * s.rotation_period() / s.dt) +
+                                " steps (integrator.dt " + number_text(s.dt) + "), more than " + number_text(kMaxSteps));
   check_fits(f, s);  // builds the particles
   if (s.law != "rapaport") {
     try {

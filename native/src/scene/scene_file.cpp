@@ -307,13 +307,11 @@ bool SceneFile::flag(const std::string& key, bool fallback) {
   fail(key, "must be true or false, got " + describe(*n));
 }
 
-namespace {
 std::string number_text(double v) {
   std::ostringstream os;
   os << v;
   return os.str();
 }
-}  // namespace
 
 double SceneFile::positive(const std::string& key, double v) const {
   if (!(v > 0.0)) fail(key, "must be > 0, got " + number_text(v));

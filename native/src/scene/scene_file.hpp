@@ -21,6 +21,9 @@ namespace granular {
 constexpr double kMaxParticles = 5e7;
 constexpr double kMaxSteps = 1e15;
 
+// A number as messages print it (shortest of the stream's default format).
+std::string number_text(double v);
+
 class SceneError : public std::runtime_error {
  public:
   // "file:line: key: reason"; line 0 (a default, a --set override, a missing
