@@ -258,7 +258,6 @@ int run_scene(const Loaded& l, const std::string& scene_path, std::string out_pa
   ctl.meta.threads = omp_get_max_threads();
   ctl.meta.seed = l.drum ? static_cast<std::int64_t>(l.drum->seed) : static_cast<std::int64_t>(l.box->seed);
   const RowCounts* rows = saved ? &saved->rows : nullptr;
-  const char* verb = saved ? "resuming" : "writing";
   const bool progress = !o.quiet && isatty(fileno(stderr));
   RunReport r;
   if (l.drum) {
@@ -273,7 +272,7 @@ int run_scene(const Loaded& l, const std::string& scene_path, std::string out_pa
     std::fprintf(stderr, "granular %s: drum %s (%s), %zu particles, %.4g rotations, %d thread(s) -> %s\n", kVersion,
                  s.name.c_str(), scene_path.c_str(), n, s.rotations, omp_get_max_threads(), out_path.c_str());
     if (saved)
-      std::fprintf(stderr, "%s from step %lld (rotation %.4g)\n", verb, static_cast<long long>(saved->step),
+      std::fprintf(stderr, "resuming from step %lld (rotation %.4g)\n", static_cast<long long>(saved->step),
                    saved->time / s.rotation_period());
     r = run_drum(s, sim, &out, progress, ctl);
   } else {
@@ -292,7 +291,7 @@ int run_scene(const Loaded& l, const std::string& scene_path, std::string out_pa
                  kVersion, s.name.c_str(), scene_path.c_str(), n, s.settle, s.duration, omp_get_max_threads(),
                  out_path.c_str());
     if (saved)
-      std::fprintf(stderr, "%s from step %lld (t = %.6g s)\n", verb, static_cast<long long>(saved->step), saved->time);
+      std::fprintf(stderr, "resuming from step %lld (t = %.6g s)\n", static_cast<long long>(saved->step), saved->time);
     r = run_box(s, sim, &out, progress, ctl);
   }
   std::fprintf(stderr, "done: %ld steps in %.1f s, %.3g particle-steps/s\n%s", r.steps, r.seconds,

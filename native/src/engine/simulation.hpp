@@ -53,10 +53,7 @@ class Simulation {
   // Call once the store, box, law and walls are set: builds the list and the
   // forces at t = 0 that the first half kick needs.
   void init() {
-    max_range_ = 0.0;
-    double dmax = 0.0;
-    for (double d : p.d) dmax = std::max(dmax, d);
-    max_range_ = Law::range(dmax, dmax);
+    set_max_range();
     rebuild();
     compute_forces();
     integrator.start(p);
@@ -120,9 +117,7 @@ class Simulation {
   // reorders nothing (the cell sort is stable and the store is in its order),
   // so the next step sums forces exactly as the interrupted run would have.
   void restore_neighbors(std::vector<V> x_ref) {
-    double dmax = 0.0;
-    for (double d : p.d) dmax = std::max(dmax, d);
-    max_range_ = Law::range(dmax, dmax);
+    set_max_range();
     const std::vector<std::int64_t> saved_order = p.id;
     std::swap(p.x, x_ref);
     rebuild();
@@ -155,6 +150,13 @@ class Simulation {
   double max_step_move() const { return std::min(0.5 * skin, max_speed * integrator.dt); }
 
  private:
+  // The list's cell size: the law's range for the two largest particles.
+  void set_max_range() {
+    double dmax = 0.0;
+    for (double d : p.d) dmax = std::max(dmax, d);
+    max_range_ = Law::range(dmax, dmax);
+  }
+
   struct Stamps {
     PhaseTimers::Clock::time_point start = PhaseTimers::Clock::now(), first = start, pairs_done = start,
                                    walls_done = start, end = start;
