@@ -171,26 +171,32 @@ class Simulation {
 
   // Called by every thread of a parallel region. Pair contacts go into
   // per-thread buffers, reduced in thread order (so the result is bitwise
-  // repeatable for a thread count), then wall contacts per particle. A thread
-  // zeroes, and a reducer reads, only the chunks of a buffer its owner writes,
-  // so little data crosses between cores.
+  // repeatable for a thread count), then wall contacts per particle. Thread 0's
+  // buffer is the store's own force column, so one thread needs no buffer and
+  // no reduction. Another thread zeroes, and a reducer reads, only the chunks
+  // of a buffer its owner writes, so little data crosses between cores.
   void forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, Stamps& ts) {
     const std::size_t n = p.size();
 #pragma omp single
-    if (static_cast<int>(fbuf_.size()) != nt || fbuf_[0].size() != n) {
-      fbuf_.assign(nt, std::vector<V>(n));
-      tbuf_.assign(nt, std::vector<A>(n));
+    if (static_cast<int>(fbuf_.size()) != nt - 1 || (nt > 1 && fbuf_[0].size() != n)) {
+      fbuf_.assign(nt - 1, std::vector<V>(n));
+      tbuf_.assign(nt - 1, std::vector<A>(n));
     }
     constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
-    V* F = fbuf_[t].data();
-    A* T = tbuf_[t].data();
-    for (std::size_t c = 0; c < n_chunks; ++c)
-      if (nl_.touched(t, c))
-        for (std::size_t i = c * kChunk, e = std::min(n, i + kChunk); i < e; ++i) {
-          F[i].setZero();
-          T[i].setZero();
-        }
+    V* F = t == 0 ? p.f.data() : fbuf_[t - 1].data();
+    A* T = t == 0 ? p.tq.data() : tbuf_[t - 1].data();
+    if (t == 0) {
+      std::fill(p.f.begin(), p.f.end(), V::Zero());
+      std::fill(p.tq.begin(), p.tq.end(), A::Zero());
+    } else {
+      for (std::size_t c = 0; c < n_chunks; ++c)
+        if (nl_.touched(t, c))
+          for (std::size_t i = c * kChunk, e = std::min(n, i + kChunk); i < e; ++i) {
+            F[i].setZero();
+            T[i].setZero();
+          }
+    }
     const std::uint32_t* col = nl_.col(t);
     for (std::size_t i = lo; i < hi; ++i) {
       const V xi = p.x[i], vi = p.v[i];
@@ -216,17 +222,14 @@ class Simulation {
       T[i] += ti;
     }
 #pragma omp barrier
+    // p.f holds thread 0's sum; add the others' in thread order.
     for (std::size_t i = lo; i < hi;) {
       const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
-      for (std::size_t q = i; q < e; ++q) {
-        p.f[q].setZero();
-        p.tq[q].setZero();
-      }
-      for (int u = 0; u < nt; ++u)
+      for (int u = 1; u < nt; ++u)
         if (nl_.touched(u, c))
           for (std::size_t q = i; q < e; ++q) {
-            p.f[q] += fbuf_[u][q];
-            p.tq[q] += tbuf_[u][q];
+            p.f[q] += fbuf_[u - 1][q];
+            p.tq[q] += tbuf_[u - 1][q];
           }
       i = e;
     }
