@@ -224,3 +224,27 @@ def test_other_thread_count_warns_and_continues(tmp_path, drum_ref):
     got, ref = read_run(out), read_run(drum_ref)
     assert got.frames.n_frames == ref.frames.n_frames
     assert np.array_equal(got.frames.time, ref.frames.time)
+
+
+def test_resume_of_a_file_in_the_pre_swmr_format(tmp_path, drum_ref):
+    """Outputs written before the switch to single-writer/multiple-reader mode
+    have a version-0 superblock, which cannot be switched; --resume continues
+    them in the ordinary mode, says so, and still matches the reference."""
+    out = tmp_path / "drum.h5"
+    p = start_and_wait_for_checkpoint(DRUM, DRUM_SETS, out, "--checkpoint-steps", 2000)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 143, err
+    old = tmp_path / "old.h5"
+    with h5py.File(out, "r") as src, h5py.File(old, "w", libver="earliest") as dst:
+        for name in src:
+            src.copy(src[name], dst, name=name)
+        for k, v in src.attrs.items():
+            dst.attrs[k] = v
+    with open(old, "rb") as f:
+        assert f.read(9)[8] == 0, "the copy should have a version-0 superblock"
+    os.replace(old, out)
+    r = run(DRUM, DRUM_SETS, out, "--resume")
+    assert r.returncode == 0, r.stderr
+    assert "older HDF5 format" in r.stderr and "continued without it" in r.stderr
+    assert_bitwise_equal(drum_ref, out)

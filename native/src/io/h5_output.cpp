@@ -1,5 +1,6 @@
 #include "io/h5_output.hpp"
 
+#include <iostream>
 #include <stdexcept>
 
 namespace granular {
@@ -49,6 +50,17 @@ H5Output::H5Output(const std::string& path, int dim, std::int64_t n, bool with_f
 
 void H5Output::start_swmr() {
   if (swmr_) return;
+  // A file resumed from an earlier version of this program may predate the
+  // 1.10 format (superblock version < 3), which cannot be switched: it goes on
+  // in the ordinary mode, with the risk stated.
+  H5F_info2_t info;
+  check(H5Fget_info2(file_, &info), "reading the file's format version", path_);
+  if (info.super.version < 3) {
+    std::cerr << "note: " << path_ << " was created in an older HDF5 format that single-writer/multiple-reader "
+              << "mode cannot use; it is continued without it (a run killed with SIGKILL may leave it "
+              << "unreadable; checkpoints are unaffected)\n";
+    return;
+  }
   check(H5Fstart_swmr_write(file_), "switching to single-writer/multiple-reader mode", path_);
   swmr_ = true;
 }
