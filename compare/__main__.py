@@ -7,6 +7,7 @@
     python3 -m compare onset RUN.h5... [--within S]     shaken box: onset frequency over packings
     python3 -m compare bench [-o DIR] [--rounds N]      native against LAMMPS, interleaved, with ratios
     python3 -m compare speed-accuracy -o DIR            binary-collision error against cost, per method
+    python3 -m compare step-sweep -o DIR [--part P]     observables against the time step; the stability map
     python3 -m compare box-report --big RUN... --nobig RUN... [--ramp RUN...] [--height RUN...]
                        [--velocity RUN...] -o DIR      the shaken box's figures over many runs
 
@@ -105,6 +106,10 @@ def main(argv=None):
     br.add_argument("-o", "--output", required=True, help="directory for the PNGs and box_report.json")
     sa = sub.add_parser("speed-accuracy", help="binary-collision error against cost per law and integrator")
     sa.add_argument("-o", "--output", required=True, help="directory for collision_sweep.json and the PNGs")
+    ss = sub.add_parser("step-sweep", help="scene observables against the time step, per method; the stability map")
+    ss.add_argument("-o", "--output", required=True, help="directory: runs/ (the cache), step_sweep.json, PNGs")
+    ss.add_argument("--part", choices=["accuracy", "stability", "all"], default="all")
+    ss.add_argument("--engines", default="native,lammps,yade", help="comma-separated subset of native, lammps, yade")
     va = sub.add_parser("validate", help="run the engines on a suite of scenes and write the agreement report")
     va.add_argument("--suite", choices=["quick", "full"], required=True)
     va.add_argument("-o", "--output", required=True, help="directory: runs/ (the cache), report.json, report.html")
@@ -126,6 +131,14 @@ def main(argv=None):
         print(table_markdown(rows))
         for f in figs:
             print(f"wrote {f}", file=sys.stderr)
+        return 0
+
+    if args.command == "step-sweep":
+        from .step_sweep import markdown, sweep
+        parts = ("accuracy", "stability") if args.part == "all" else (args.part,)
+        res = sweep(args.output, parts=parts, engines=tuple(args.engines.split(",")),
+                    log=lambda m: print(m, file=sys.stderr, flush=True))
+        print(markdown(res))
         return 0
 
     if args.command == "box-report":
