@@ -216,7 +216,7 @@ RunReport bench_box(const BoxScene& s, double settle, double seconds) {
         r.particles = static_cast<long>(v.p.size());
         r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         r.particle_steps_per_second = steps * static_cast<double>(v.p.size()) / r.seconds;
-        r.timing = phase_report(v, r.seconds);
+        r.timing = phase_report(v, r.seconds, steps);
         return r;
       },
       sim);

@@ -247,7 +247,9 @@ RunReport bench_drum(const DrumScene& s, double settle, double rotations) {
   DrumSim sim = make_drum(a);
   if (settle > 0) run_drum(a, sim, nullptr, false);
   a.rotations = rotations;
-  return run_drum(a, sim, nullptr, false);
+  RunReport r = run_drum(a, sim, nullptr, false);
+  std::visit([&](auto& v) { r.timing = phase_report(v, r.seconds, r.steps); }, sim);
+  return r;
 }
 
 }  // namespace granular

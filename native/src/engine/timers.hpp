@@ -39,8 +39,10 @@ class ScopedPhase {
 };
 
 // Where the time of a run went, one line per phase, and the neighbour list's work.
+// With `steps` > 0 it also sets the pair loop's time per contact beside a bare
+// kernel's (Simulation::bare_kernel; contacts counted at the end of the run).
 template <class Sim>
-std::string phase_report(const Sim& sim, double total_seconds) {
+std::string phase_report(const Sim& sim, double total_seconds, long steps = 0) {
   std::ostringstream os;
   for (int k = 0; k < static_cast<int>(Phase::count); ++k) {
     const auto ph = static_cast<Phase>(k);
@@ -51,6 +53,18 @@ std::string phase_report(const Sim& sim, double total_seconds) {
   }
   os << "  neighbour-list builds: " << sim.neighbors().builds() << ", pairs listed: " << sim.neighbors().n_pairs()
      << "\n";
+  if (steps > 0) {
+    const auto [contacts, bare_ns] = sim.bare_kernel();
+    if (contacts > 0) {
+      const double loop_ns = 1e9 * sim.timers.seconds(Phase::pairs) / (static_cast<double>(steps) * contacts);
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "  pair loop %.1f ns per contact (%zu contacts, %d thread(s)); bare kernel over a fixed "
+                    "contact list %.1f ns (1 thread): x%.2f\n",
+                    loop_ns, contacts, sim.neighbors().threads(), bare_ns, loop_ns / bare_ns);
+      os << buf;
+    }
+  }
   return os.str();
 }
 
