@@ -94,6 +94,8 @@ def main(argv=None):
     be.add_argument("--seconds", type=float, default=1.0, help="box seconds timed per case")
     be.add_argument("--only", action="append", default=[], help="only cases whose key contains this (repeatable)")
     be.add_argument("--yade", action="store_true", help="also YADE (and the native engine with YADE's law)")
+    be.add_argument("--scaling", action="store_true",
+                    help="also the native drum at about 1e3, 1e4 and 1e5 particles: cost per particle-step and memory")
     br = sub.add_parser("box-report", help="shaken box: Fig. 1, 3, 4, force ratio, ramp onset over many runs")
     br.add_argument("--big", nargs="*", default=[], help="runs with the big disk (Fig. 3, force ratio)")
     br.add_argument("--nobig", nargs="*", default=[], help="runs without the big disk (Fig. 3, force ratio)")

@@ -40,6 +40,7 @@ class Case:
     sets: list = field(default_factory=list)
     rates: list = field(default_factory=list)
     particles: int = 0
+    rss_per_particle: float = 0.0  # native: peak resident memory / particles
     scratch: Path = Path("/tmp/compare_bench_yade.h5")  # YADE's output, overwritten each round
 
     def command(self, timed: float, settle: float) -> list[str]:
@@ -79,6 +80,7 @@ class Case:
         if self.engine == "native":
             row = data[0]
             rate, self.particles = float(row["particle_steps_per_second"]), int(row["particles"])
+            self.rss_per_particle = float(row.get("peak_rss_bytes_per_particle", 0.0))
         else:
             rate, self.particles = float(data["atom_steps_per_second"]), int(data["atoms"])
         self.rates.append(rate)
@@ -87,7 +89,8 @@ class Case:
     def summary(self) -> dict:
         return {"key": self.key, "scene": Path(self.scene).stem, "engine": self.engine, "label": self.label,
                 "workers": self.workers, "particles": self.particles, "rounds": len(self.rates),
-                "median": statistics.median(self.rates), "min": min(self.rates), "max": max(self.rates)}
+                "median": statistics.median(self.rates), "min": min(self.rates), "max": max(self.rates),
+                "peak_rss_bytes": self.rss_per_particle * self.particles if self.rss_per_particle else None}
 
 
 def default_cases(threads=(1, 2), lammps_ranks=(1, 2)) -> list[Case]:
@@ -118,6 +121,31 @@ def yade_cases(threads=(1, 2)) -> list[Case]:
                    ["contact.law=viscel"]) for t in threads]
     cases += [Case(f"box-yade-{t}t", box, "yade", "YADE ViscEl law, leapfrog", t) for t in threads]
     return cases
+
+
+# Drum lengths giving about 1e3, 1e4 and 1e5 particles at drum #A's filling
+# (36.4 particles per unit length).
+SCALING_LENGTHS = (28, 280, 2800)
+
+
+def scaling_cases() -> list[Case]:
+    return [Case(f"scale-drum-native-rapaport-L{L}", "scenes/drum/A.toml", "native",
+                 f"Rapaport law, leapfrog, drum length {L}", 1, [f"drum.length={L}"]) for L in SCALING_LENGTHS]
+
+
+def scaling(rows) -> dict | None:
+    """Cost per particle-step over the sizes, its spread, and the marginal memory per particle."""
+    sc = sorted([r for r in rows if r["key"].startswith("scale-")], key=lambda r: r["particles"])
+    if len(sc) < 2:
+        return None
+    ns = [1e9 / r["median"] for r in sc]
+    out = {"sizes": [{"particles": r["particles"], "ns_per_particle_step": n,
+                      "peak_rss_bytes": r["peak_rss_bytes"]} for r, n in zip(sc, ns)],
+           "cost_max_over_min": max(ns) / min(ns)}
+    a, b = sc[0], sc[-1]
+    if a["peak_rss_bytes"] and b["peak_rss_bytes"]:
+        out["marginal_bytes_per_particle"] = (b["peak_rss_bytes"] - a["peak_rss_bytes"]) / (b["particles"] - a["particles"])
+    return out
 
 
 RATIOS = [  # (numerator, denominator, what it says)
@@ -157,7 +185,7 @@ def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=
                         "load_before": os.getloadavg()[0]},
             "settings": {"rounds": rounds, "drum_rotations": drum_rotations, "drum_settle_rotations": drum_settle,
                          "box_seconds": box_seconds, "box_settle_seconds": box_settle},
-            "wall_seconds": time.time() - t_start, "cases": rows, "ratios": ratios}
+            "wall_seconds": time.time() - t_start, "cases": rows, "ratios": ratios, "scaling": scaling(rows)}
 
 
 def markdown(result) -> str:
@@ -168,6 +196,13 @@ def markdown(result) -> str:
                      f"{r['median']:.3g} | {r['min']:.3g} – {r['max']:.3g} |")
     lines += ["", "| ratio | value |", "|---|---|"]
     lines += [f"| {q['what']} | {q['ratio']:.2f} |" for q in result["ratios"]]
+    sc = result.get("scaling")
+    if sc:
+        lines += ["", "| particles | ns per particle-step | peak memory (MB) |", "|---|---|---|"]
+        lines += [f"| {z['particles']} | {z['ns_per_particle_step']:.1f} | "
+                  f"{z['peak_rss_bytes'] / 1e6:.1f} |" for z in sc["sizes"]]
+        lines += ["", f"Cost per particle-step, largest over smallest: {sc['cost_max_over_min']:.2f}; "
+                  f"marginal memory {sc.get('marginal_bytes_per_particle', float('nan')):.0f} bytes per particle."]
     s = result["settings"]
     lines += ["", f"{s['rounds']} interleaved rounds; drum: {s['drum_settle_rotations']} rotations settled, "
               f"{s['drum_rotations']} timed; box: {s['box_settle_seconds']} s of shaking settled, "
@@ -176,7 +211,7 @@ def markdown(result) -> str:
 
 
 def main(args) -> int:
-    cases = default_cases() + (yade_cases() if args.yade else [])
+    cases = default_cases() + (yade_cases() if args.yade else []) + (scaling_cases() if args.scaling else [])
     if args.only:
         cases = [c for c in cases if any(k in c.key for k in args.only)]
         if not cases:

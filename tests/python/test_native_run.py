@@ -131,3 +131,24 @@ def test_observe_and_plot_on_a_real_run(short_run, tmp_path):
     assert r.returncode == 0, r.stderr
     for name in ("spacetime.png", "bands.png", "surface.png"):
         assert (tmp_path / "figs" / name).stat().st_size > 1000
+
+
+def test_bench_memory_is_the_runs_own_and_grows_with_the_particles():
+    """granular bench's peak memory is the run's own memory image: started from
+    a parent holding 300 MB (as compare bench's Python is), a small drum still
+    reports a small peak, and ten times the particles cost memory in
+    proportion (a few hundred bytes each, not the parent's size)."""
+    ballast = bytearray(300_000_000)
+    ballast[::4096] = b"x" * len(ballast[::4096])  # touch the pages: resident, not just reserved
+    peaks = {}
+    for length in (28, 280):
+        out = subprocess.run([str(BIN), "bench", str(ROOT / "scenes/drum/A.toml"), "--threads", "1",
+                              "--rotations", "0.01", "--settle", "0", "--repeat", "1", "--json",
+                              "--set", f"drum.length={length}"], capture_output=True, text=True, check=True).stdout
+        row = json.loads(out)[0]
+        peaks[row["particles"]] = row["peak_rss_bytes_per_particle"] * row["particles"]
+    (n1, m1), (n2, m2) = sorted(peaks.items())
+    assert m1 < 100e6, f"a {n1}-particle drum reports {m1 / 1e6:.0f} MB: the parent's memory leaked in"
+    marginal = (m2 - m1) / (n2 - n1)
+    assert 50 < marginal < 5000, f"{marginal:.0f} bytes per particle"
+    del ballast

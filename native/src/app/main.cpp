@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <map>
@@ -182,8 +183,14 @@ void common_attrs(H5Output& out, const Loaded& l, const std::string& scene_path)
   out.attr("threads", static_cast<std::int64_t>(omp_get_max_threads()));
 }
 
-// Peak resident set size of this process (getrusage reports kilobytes on Linux).
+// Peak resident set size of this program: VmHWM of /proc/self/status, the high
+// water mark of this memory image. getrusage's ru_maxrss is not used where
+// VmHWM exists: Linux carries it over from the image before exec, so a run
+// started from a large parent (Python's subprocess) would report the parent's.
 double peak_rss_bytes() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("VmHWM:", 0) == 0) return 1024.0 * std::stod(line.substr(6));  // "VmHWM:   12808 kB"
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
   return 1024.0 * static_cast<double>(u.ru_maxrss);
