@@ -112,6 +112,7 @@ def main(argv=None):
     ss.add_argument("-o", "--output", required=True, help="directory: runs/ (the cache), step_sweep.json, PNGs")
     ss.add_argument("--part", choices=["accuracy", "stability", "all"], default="all")
     ss.add_argument("--engines", default="native,lammps,yade", help="comma-separated subset of native, lammps, yade")
+    ss.add_argument("--cached-only", action="store_true", help="report the runs already in DIR; run nothing")
     va = sub.add_parser("validate", help="run the engines on a suite of scenes and write the agreement report")
     va.add_argument("--suite", choices=["quick", "full"], required=True)
     va.add_argument("-o", "--output", required=True, help="directory: runs/ (the cache), report.json, report.html")
@@ -139,7 +140,7 @@ def main(argv=None):
         from .step_sweep import markdown, sweep
         parts = ("accuracy", "stability") if args.part == "all" else (args.part,)
         res = sweep(args.output, parts=parts, engines=tuple(args.engines.split(",")),
-                    log=lambda m: print(m, file=sys.stderr, flush=True))
+                    log=lambda m: print(m, file=sys.stderr, flush=True), cached_only=args.cached_only)
         print(markdown(res))
         return 0
 

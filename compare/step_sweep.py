@@ -283,7 +283,8 @@ def sim_units(run):
 # ---------------------------------------------------------------- the sweep
 
 
-def sweep(outdir, parts=("accuracy", "stability"), engines=("native", "lammps", "yade"), log=print):
+def sweep(outdir, parts=("accuracy", "stability"), engines=("native", "lammps", "yade"), log=print,
+          cached_only=False):
     outdir = Path(outdir)
     result = {"accuracy": [], "stability": []}
     todo = []
@@ -297,6 +298,8 @@ def sweep(outdir, parts=("accuracy", "stability"), engines=("native", "lammps", 
     for k, run in enumerate(todo):
         lad = (run.method, run.part, run.param)
         if run.part == "stability" and failed_at.get(lad, 0) >= 2:
+            continue
+        if cached_only and not (outdir / "runs" / f"{run.key()}.json").exists():
             continue
         meta = execute(run, outdir)
         status, detail = classify(run, meta)
