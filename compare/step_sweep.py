@@ -238,7 +238,7 @@ def classify(run, meta):
         return "failed", msg
     # The engine finished: check its output for what it did not report.
     try:
-        x = final_positions(meta["path"])
+        x, walls = final_positions(meta["path"], run.kind)
     except Exception as e:  # unreadable output is a failure
         return "unreadable output", str(e)
     if not np.all(np.isfinite(x)):
@@ -247,20 +247,26 @@ def classify(run, meta):
         r = np.hypot(x[:, 0], x[:, 2])
         if np.any(r > 8.0 + 1.0):  # outside the drum (D = 16) by more than a diameter
             return "silent escape", f"{int(np.sum(r > 9.0))} particles outside the drum"
-    else:
-        if np.any(x[:, 0] < -5) or np.any(x[:, 0] > 65) or np.any(x[:, 1] < -10):
-            return "silent escape", "particles outside the box"
+    elif walls.size:
+        # Outside the walls of particles (which move with the box) by more than a wall particle.
+        lo, hi = walls.min(axis=0), walls.max(axis=0)
+        out = (x[:, 0] < lo[0] - 2) | (x[:, 0] > hi[0] + 2) | (x[:, 1] < lo[1] - 2)
+        if np.any(out):
+            return "silent escape", f"{int(np.sum(out))} grains outside the box"
     return "ok", ""
 
 
-def final_positions(path):
+def final_positions(path, kind):
+    """The last frame's grain positions and, for the box, its wall particles' (species 2)."""
     from .reader import open_h5
     with open_h5(path) as h5:
         pos = h5["frames/position"]
         n = pos.shape[0]
         sp = h5["frames/species"][n - 1]
         x = pos[n - 1]
-    return x[sp != 2] if x.shape[1] >= 2 else x  # wall particles (species 2) excluded
+    if kind == "drum":
+        return x, np.empty((0, 3))
+    return x[sp != 2], x[sp == 2]
 
 
 def observables(run, meta):
