@@ -216,7 +216,8 @@ def classify(run, meta):
     """'ok' or the failure: (status, detail)."""
     err = meta.get("stderr_tail") or ""
     last = [ln for ln in err.strip().splitlines() if ln.strip()]
-    msg = last[-1] if last else ""
+    errs = [ln for ln in last if ln.lower().startswith(("error", "lammps error", "runtimeerror"))]
+    msg = (errs or last or [""])[-1]
     if meta["returncode"] != 0:
         low = err.lower()
         if "unstable" in low and ("non-finite" in low):
