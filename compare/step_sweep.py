@@ -342,7 +342,9 @@ def summarise(rows):
         for dt in steps:
             rs = [r for r in mine if r["dt"] == dt]
             ok = [r for r in rs if r["status"] == "ok"]
-            e = {"dt": dt, "runs": len(rs), "ok": len(ok), "cpu_per_unit": float(np.mean([r["cpu_per_unit"] for r in rs])),
+            # Cost from the runs that finished (a failed run stops early and costs little).
+            e = {"dt": dt, "runs": len(rs), "ok": len(ok),
+                 "cpu_per_unit": float(np.mean([r["cpu_per_unit"] for r in (ok or rs)])),
                  "failures": sorted({r["status"] for r in rs if r["status"] != "ok"})}
             for obs in OBSERVABLES[kind]:
                 v = [r[obs] for r in ok if r.get(obs) is not None and np.isfinite(r[obs])]
@@ -362,6 +364,9 @@ def summarise(rows):
                 if mode == "rel":
                     err = err / abs(ref[obs]) if ref[obs] else float("inf")
                 e[obs + "_error"] = err
+                # The statistical part: standard error of the difference of two seed means.
+                se = math.hypot(e.get(obs + "_se") or 0.0, ref.get(obs + "_se") or 0.0)
+                e[obs + "_error_se"] = se / abs(ref[obs]) if mode == "rel" and ref[obs] else se
                 within = within and err <= tol
             e["within_tolerance"] = within
         ok_steps = [e for e in per if e["within_tolerance"]]
@@ -421,12 +426,15 @@ def plot(result, outdir):
             pts = []
             for m in ms:
                 short = m.split(" ", 1)[1]
-                es = [e for e in summ[m]["steps"][1:] if e.get(obs + "_error") is not None]
+                # Steps at which every seed ran (a step where some failed is in the stability map).
+                es = [e for e in summ[m]["steps"][1:] if e.get(obs + "_error") is not None and e["ok"] == e["runs"]]
                 if not es:
                     continue
                 x = [e["cpu_per_unit"] for e in es]
                 y = [max(e[obs + "_error"], 1e-4) for e in es]
-                ax.plot(x, y, "o-", color=COLOURS.get(short), label=short)
+                se = [e.get(obs + "_error_se") or 0.0 for e in es]
+                ax.errorbar(x, y, yerr=[np.minimum(se, np.array(y) * 0.999), se], fmt="o-", capsize=2,
+                            color=COLOURS.get(short), label=short)
                 for e, xi, yi in zip(es, x, y):
                     ax.annotate(f"{e['dt']:.2g}", (xi, yi), fontsize=7, xytext=(3, 3), textcoords="offset points")
                     pts.append((xi, yi))
@@ -439,7 +447,7 @@ def plot(result, outdir):
             ax.set_yscale("log")
             ax.set_xlabel(f"CPU seconds per simulated {unit} (one core)")
             ax.set_ylabel(f"|{obs}(dt) - {obs}(smallest dt)|" + (" / reference" if mode == "rel" else ""))
-            ax.set_title(f"{kind}: {obs} against cost (labels: dt)")
+            ax.set_title(f"{kind}: {obs} against cost (labels: dt; bars: seed standard error)", fontsize=9)
             ax.legend(fontsize=7)
         fig.tight_layout()
         fig.savefig(Path(outdir) / f"step_{kind}.png", dpi=110)
