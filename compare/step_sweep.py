@@ -180,21 +180,14 @@ def execute(run, outdir, timeout=3600.0):
             p.unlink()
     cmd = command(run, out)
     t0 = time.monotonic()
-    # stdout kept too: LAMMPS prints its ERROR lines there.
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-    out_text, err = "", ""
+    # Engines report on stderr; LAMMPS's errors are in its log, read by classify().
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
-        out_text, err = proc.communicate(timeout=timeout)
+        _, err = proc.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
         proc.kill()
-        out_text, err = proc.communicate()
-        err += f"\ntimed out after {timeout:.0f} s"
-    # LAMMPS writes its ERROR lines to its log (OUT.lammps/log.lammps), not to the screen.
-    log_lines = []
-    lmp_log = Path(str(out) + ".lammps") / "log.lammps"
-    if lmp_log.exists():
-        log_lines = [ln for ln in lmp_log.read_text(errors="replace").splitlines() if "ERROR" in ln]
-    err = "\n".join([*log_lines, (err or "")])
+        _, err = proc.communicate()
+        err = (err or "") + f"\ntimed out after {timeout:.0f} s"
     # CPU time of the engine and everything it started (YADE runs as a child).
     ru = _children_cpu()
     meta = {"command": cmd, "returncode": proc.returncode, "wall_seconds": time.monotonic() - t0,
@@ -222,8 +215,9 @@ def _children_cpu():
 def classify(run, meta):
     """'ok' or the failure: (status, detail)."""
     err = meta.get("stderr_tail") or ""
+    # LAMMPS writes its ERROR lines to its log (OUT.lammps/log.lammps), not to the screen.
     lmp_log = Path(str(meta.get("path", "")) + ".lammps") / "log.lammps"
-    if meta["returncode"] != 0 and "ERROR" not in err and lmp_log.exists():
+    if meta["returncode"] != 0 and lmp_log.exists():
         err = "\n".join([ln for ln in lmp_log.read_text(errors="replace").splitlines() if "ERROR" in ln] + [err])
     last = [ln for ln in err.strip().splitlines() if ln.strip()]
     errs = [ln for ln in last if ln.lower().startswith(("error", "lammps error", "runtimeerror"))]
