@@ -96,6 +96,8 @@ def main(argv=None):
     be.add_argument("--yade", action="store_true", help="also YADE (and the native engine with YADE's law)")
     be.add_argument("--scaling", action="store_true",
                     help="also the native drum at about 1e3, 1e4 and 1e5 particles: cost per particle-step and memory")
+    be.add_argument("--skin", action="store_true",
+                    help="also the native drum and box over a ladder of neighbour-list skins (cost and builds per step)")
     br = sub.add_parser("box-report", help="shaken box: Fig. 1, 3, 4, force ratio, ramp onset over many runs")
     br.add_argument("--big", nargs="*", default=[], help="runs with the big disk (Fig. 3, force ratio)")
     br.add_argument("--nobig", nargs="*", default=[], help="runs without the big disk (Fig. 3, force ratio)")

@@ -39,6 +39,7 @@ class Case:
     workers: int        # threads (native) or MPI ranks (LAMMPS)
     sets: list = field(default_factory=list)
     rates: list = field(default_factory=list)
+    builds_per_step: list = field(default_factory=list)  # native: neighbour-list builds per timed step
     particles: int = 0
     rss_per_particle: float = 0.0  # native: peak resident memory / particles
     scratch: Path = Path("/tmp/compare_bench_yade.h5")  # YADE's output, overwritten each round
@@ -81,6 +82,8 @@ class Case:
             row = data[0]
             rate, self.particles = float(row["particle_steps_per_second"]), int(row["particles"])
             self.rss_per_particle = float(row.get("peak_rss_bytes_per_particle", 0.0))
+            if row.get("steps"):
+                self.builds_per_step.append(float(row.get("neighbor_builds", 0)) / float(row["steps"]))
         else:
             rate, self.particles = float(data["atom_steps_per_second"]), int(data["atoms"])
         self.rates.append(rate)
@@ -90,7 +93,8 @@ class Case:
         return {"key": self.key, "scene": Path(self.scene).stem, "engine": self.engine, "label": self.label,
                 "workers": self.workers, "particles": self.particles, "rounds": len(self.rates),
                 "median": statistics.median(self.rates), "min": min(self.rates), "max": max(self.rates),
-                "peak_rss_bytes": self.rss_per_particle * self.particles if self.rss_per_particle else None}
+                "peak_rss_bytes": self.rss_per_particle * self.particles if self.rss_per_particle else None,
+                "builds_per_step": statistics.median(self.builds_per_step) if self.builds_per_step else None}
 
 
 def default_cases(threads=(1, 2), lammps_ranks=(1, 2)) -> list[Case]:
@@ -148,6 +152,59 @@ def scaling(rows) -> dict | None:
     return out
 
 
+# Neighbour-list skins: drum in units of the small diameter (default 0.4),
+# box in cm (default 0.5). The skin changes no force (the list holds every
+# pair within range + skin and is rebuilt before a pair can close the skin),
+# only the cost: fewer builds against more pairs tested per step.
+SKINS = {"drum": (0.1, 0.2, 0.4, 0.6, 0.8, 1.2), "box": (0.1, 0.25, 0.5, 1.0, 2.0)}
+
+
+def skin_cases() -> list[Case]:
+    cases = [Case(f"skin-drum-native-rapaport-{s:g}", "scenes/drum/A.toml", "native",
+                  f"Rapaport law, leapfrog, skin {s:g}", 1, [f"neighbor.skin={s!r}"]) for s in SKINS["drum"]]
+    cases += [Case(f"skin-box-native-gear-{s:g}", "scenes/box/f3.0_big.toml", "native",
+                   f"Poeschel-Herrmann law, Gear, skin {s:g} cm", 1, [f"neighbor.skin={s!r}"]) for s in SKINS["box"]]
+    return cases
+
+
+def skin_sweep(rows) -> dict | None:
+    """Per scene: skin, particle-steps/s, neighbour-list builds per step."""
+    out = {}
+    for r in rows:
+        if not r["key"].startswith("skin-"):
+            continue
+        scene = r["key"].split("-")[1]
+        out.setdefault(scene, []).append({"skin": float(r["key"].rsplit("-", 1)[1]), "median": r["median"],
+                                          "min": r["min"], "max": r["max"],
+                                          "builds_per_step": r.get("builds_per_step")})
+    for v in out.values():
+        v.sort(key=lambda z: z["skin"])
+    return out or None
+
+
+def plot_skin(sweep, path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, len(sweep), figsize=(5 * len(sweep), 3.6), squeeze=False)
+    for ax, (scene, pts) in zip(axes[0], sorted(sweep.items())):
+        s = [p["skin"] for p in pts]
+        ax.errorbar(s, [p["median"] / 1e6 for p in pts],
+                    yerr=[[(p["median"] - p["min"]) / 1e6 for p in pts], [(p["max"] - p["median"]) / 1e6 for p in pts]],
+                    marker="o", capsize=3, label="particle-steps/s")
+        ax.set_xlabel("skin (" + ("small diameters" if scene == "drum" else "cm") + ")")
+        ax.set_ylabel("10⁶ particle-steps/s, 1 thread")
+        ax.set_title({"drum": "drum #A, Rapaport's law", "box": "box 3 Hz, Gear"}.get(scene, scene))
+        if all(p["builds_per_step"] is not None for p in pts):
+            ax2 = ax.twinx()
+            ax2.plot(s, [p["builds_per_step"] for p in pts], "s--", color="tab:red", label="builds per step")
+            ax2.set_ylabel("neighbour-list builds per step", color="tab:red")
+            ax2.set_yscale("log")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 RATIOS = [  # (numerator, denominator, what it says)
     ("drum-native-linear-1t", "drum-lammps-1r", "drum, same law: native 1 thread / LAMMPS serial"),
     ("drum-native-rapaport-1t", "drum-lammps-1r", "drum: native Rapaport law / LAMMPS linear law, serial"),
@@ -185,7 +242,8 @@ def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=
                         "load_before": os.getloadavg()[0]},
             "settings": {"rounds": rounds, "drum_rotations": drum_rotations, "drum_settle_rotations": drum_settle,
                          "box_seconds": box_seconds, "box_settle_seconds": box_settle},
-            "wall_seconds": time.time() - t_start, "cases": rows, "ratios": ratios, "scaling": scaling(rows)}
+            "wall_seconds": time.time() - t_start, "cases": rows, "ratios": ratios, "scaling": scaling(rows),
+            "skin": skin_sweep(rows)}
 
 
 def markdown(result) -> str:
@@ -203,6 +261,14 @@ def markdown(result) -> str:
                   f"{z['peak_rss_bytes'] / 1e6:.1f} |" for z in sc["sizes"]]
         lines += ["", f"Cost per particle-step, largest over smallest: {sc['cost_max_over_min']:.2f}; "
                   f"marginal memory {sc.get('marginal_bytes_per_particle', float('nan')):.0f} bytes per particle."]
+    sk = result.get("skin")
+    if sk:
+        lines += ["", "| scene | skin | particle-steps/s (median) | min – max | builds per step |", "|---|---|---|---|---|"]
+        for scene, pts in sorted(sk.items()):
+            lines += [f"| {scene} | {p['skin']:g} | {p['median']:.3g} | {p['min']:.3g} – {p['max']:.3g} | "
+                      f"{p['builds_per_step']:.3f} |" if p["builds_per_step"] is not None else
+                      f"| {scene} | {p['skin']:g} | {p['median']:.3g} | {p['min']:.3g} – {p['max']:.3g} | |"
+                      for p in pts]
     s = result["settings"]
     lines += ["", f"{s['rounds']} interleaved rounds; drum: {s['drum_settle_rotations']} rotations settled, "
               f"{s['drum_rotations']} timed; box: {s['box_settle_seconds']} s of shaking settled, "
@@ -211,7 +277,8 @@ def markdown(result) -> str:
 
 
 def main(args) -> int:
-    cases = default_cases() + (yade_cases() if args.yade else []) + (scaling_cases() if args.scaling else [])
+    cases = (default_cases() + (yade_cases() if args.yade else []) + (scaling_cases() if args.scaling else [])
+             + (skin_cases() if getattr(args, "skin", False) else []))
     if args.only:
         cases = [c for c in cases if any(k in c.key for k in args.only)]
         if not cases:
@@ -225,6 +292,8 @@ def main(args) -> int:
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     (out / "bench.json").write_text(json.dumps(result, indent=2) + "\n")
+    if result.get("skin"):
+        plot_skin(result["skin"], out / "skin.png")
     md = markdown(result)
     (out / "bench.md").write_text(md)
     print(md)

@@ -228,7 +228,8 @@ def classify(run, meta):
         low = err.lower()
         if "unstable" in low and ("non-finite" in low):
             return "non-finite", msg
-        if "unstable" in low and "neighbour list allows" in low:
+        # (runs before 2026-11-21 stopped at a move of skin/2: "neighbour list allows")
+        if "unstable" in low and ("smallest diameter" in low or "neighbour list allows" in low):
             return "too fast for the step", msg
         if "unstable" in low and "without a source" in low:
             return "energy rising", msg

@@ -26,7 +26,7 @@ CASES = {
     # Rapaport's contact lasts ~0.21 time units: a step of 0.2 cannot resolve it.
     "step_longer_than_the_contact": (
         DRUM, ["drum.length=32", "integrator.dt=0.2", "run.rotations=2", "run.snapshot_every=0.01"],
-        ["more than the neighbour list allows", "Likely cause: integrator.dt = 0.2 is 1/1.1 of the shortest "
+        ["more than half the smallest diameter", "Likely cause: integrator.dt = 0.2 is 1/1.1 of the shortest "
                                                 "contact period"]),
     # No damping, no gravity, a wall barely turning, a step of 1/6 of the contact
     # and a skin wide enough that the list does not stop it first: the gas heats

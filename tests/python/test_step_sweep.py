@@ -21,6 +21,8 @@ def test_classify_names_each_native_failure_and_quotes_the_error_line():
     cases = {
         "simulation unstable at step 76 (t = 1.52): particle id 890 moved 0.285 in one step, more than the "
         "neighbour list allows (0.2 = skin/2); speed 14.2": "too fast for the step",
+        "simulation unstable at step 77 (t = 1.54): particle id 890 moved 0.452 in one step, more than half the "
+        "smallest diameter (0.4): collisions are not resolved; speed 22.6": "too fast for the step",
         "simulation unstable at step 9: particle id 3 has a non-finite position or velocity": "non-finite",
         "simulation unstable at step 9: particle id 3 moves at 99, faster than anything in the scene drives it "
         "(wall 4, limit 32): energy is growing without a source": "energy rising",

@@ -463,6 +463,7 @@ int main(int argc, char** argv) {
                        {"speedup_vs_first", r.particle_steps_per_second / base},
                        {"seconds", r.seconds},
                        {"steps", r.steps},
+                       {"neighbor_builds", r.neighbor_builds},
                        // peak resident memory of the process so far (the largest run measured), per particle
                        {"peak_rss_bytes_per_particle", peak_rss_bytes() / static_cast<double>(r.particles)}});
         if (!bench_json)

@@ -209,6 +209,7 @@ RunReport bench_box(const BoxScene& s, double settle, double seconds) {
       [&](auto& v) {
         const long steps = std::lround(seconds / s.dt);
         v.timers.reset();
+        const long builds0 = v.neighbors().builds();
         const auto t0 = std::chrono::steady_clock::now();
         for (long k = 0; k < steps; ++k) v.step();
         RunReport r;
@@ -217,6 +218,7 @@ RunReport bench_box(const BoxScene& s, double settle, double seconds) {
         r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         r.particle_steps_per_second = steps * static_cast<double>(v.p.size()) / r.seconds;
         r.timing = phase_report(v, r.seconds, steps);
+        r.neighbor_builds = v.neighbors().builds() - builds0;
         return r;
       },
       sim);

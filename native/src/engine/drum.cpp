@@ -247,8 +247,12 @@ RunReport bench_drum(const DrumScene& s, double settle, double rotations) {
   DrumSim sim = make_drum(a);
   if (settle > 0) run_drum(a, sim, nullptr, false);
   a.rotations = rotations;
+  const long builds0 = std::visit([](auto& v) { return v.neighbors().builds(); }, sim);
   RunReport r = run_drum(a, sim, nullptr, false);
-  std::visit([&](auto& v) { r.timing = phase_report(v, r.seconds, r.steps); }, sim);
+  std::visit([&](auto& v) {
+    r.timing = phase_report(v, r.seconds, r.steps);
+    r.neighbor_builds = v.neighbors().builds() - builds0;
+  }, sim);
   return r;
 }
 

@@ -44,6 +44,7 @@ struct RunReport {
   double particle_steps_per_second = 0.0;
   std::string timing;  // where the time went, one line per phase
   long checkpoints = 0;  // checkpoints written
+  long neighbor_builds = 0;  // neighbour-list builds in the timed steps (bench)
 };
 
 // Runs s.rotations rotations, writing frames and profiles to `out` (may be null).

@@ -189,15 +189,24 @@ class Simulation {
     return {ci.size(), 1e9 * best / static_cast<double>(ci.size())};
   }
 
-  // Unstable if any particle moved further in one step than the skin allows
-  // (contacts could be missed and Eq. (1) diverges), or if anything is not finite.
-  double max_step_move() const { return std::min(0.5 * skin, max_speed * integrator.dt); }
+  // Unstable if any particle moved further in one step than half the smallest
+  // diameter (a collision passes in one or two steps, unresolved: Eq. (1)
+  // diverges or grains pass through each other), faster than anything drives
+  // it, or if anything is not finite. The neighbour list sets no limit here:
+  // step() rebuilds it from the current positions whenever the two largest
+  // displacements since the last build exceed the skin, before any force is
+  // evaluated, so it holds every pair in range however far a particle moved.
+  double max_step_move() const { return std::min(0.5 * d_min_, max_speed * integrator.dt); }
 
  private:
   // The list's cell size: the law's range for the two largest particles.
   void set_max_range() {
     double dmax = 0.0;
-    for (double d : p.d) dmax = std::max(dmax, d);
+    d_min_ = std::numeric_limits<double>::infinity();
+    for (double d : p.d) {
+      dmax = std::max(dmax, d);
+      d_min_ = std::min(d_min_, d);
+    }
     max_range_ = Law::range(dmax, dmax);
   }
 
@@ -316,9 +325,9 @@ class Simulation {
        << p.id[worst] << " ";
     if (!std::isfinite(worst_v) || !std::isfinite(p.x[worst].squaredNorm()))
       os << "has a non-finite position or velocity";
-    else if (moved > 0.5 * skin)
-      os << "moved " << moved << " in one step, more than the neighbour list allows (" << 0.5 * skin
-         << " = skin/2); speed " << std::sqrt(worst_v);
+    else if (moved > 0.5 * d_min_)
+      os << "moved " << moved << " in one step, more than half the smallest diameter (" << 0.5 * d_min_
+         << "): collisions are not resolved; speed " << std::sqrt(worst_v);
     else
       os << "moves at " << std::sqrt(worst_v) << ", faster than anything in the scene drives it (" << speed_sources
          << ", limit " << max_speed << "): energy is growing without a source";
@@ -329,6 +338,7 @@ class Simulation {
 
   NeighborList<Dim> nl_;
   double max_range_ = 0.0;
+  double d_min_ = std::numeric_limits<double>::infinity();  // smallest diameter (the step-move limit)
   std::vector<std::vector<V>> fbuf_;
   std::vector<std::vector<A>> tbuf_;
   std::vector<typename Integrator::DriftStats> stats_;
