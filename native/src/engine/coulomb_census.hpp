@@ -90,7 +90,7 @@ CoulombCensus coulomb_census(const Sim& sim) {
   if constexpr (std::tuple_size_v<decltype(sim.walls)> > 0) {
     auto q = p;  // the walls add to q's forces, not the run's
     const census_detail::CountingLaw<Law> counting{sim.law, c};
-    std::apply([&](const auto&... w) { (w.apply(q, counting, 0, n), ...); }, sim.walls);
+    std::apply([&](const auto&... w) { (w.apply(q, counting, 0, n, sim.time), ...); }, sim.walls);
   }
   return c;
 }
