@@ -32,6 +32,10 @@ def refuse_unrepresentable(ini):
                            key="contact.law")
     if c.get("damping", "normal") != "normal":
         raise SceneRefused("\"literal\": gran/hooke damps the normal relative velocity only", key="contact.damping")
+    if s.get("box", {}).get("walls", "particles") != "particles":
+        raise SceneRefused("\"smooth\": smooth walls are not set up in the LAMMPS case, which moves walls of "
+                           "particles (fix wall/gran would not give the wall particle's mass in m_eff nor the "
+                           "shaker's start-up envelope)", key="box.walls")
 
 
 def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):

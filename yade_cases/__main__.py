@@ -40,6 +40,9 @@ def refuse_unrepresentable(ini) -> None:
                                key="contact.damping")
         if c.get("law", "poeschel_herrmann") != "poeschel_herrmann":
             raise SceneRefused(f"\"{c.get('law')}\": not set up in the YADE box case", key="contact.law")
+        if s.get("box", {}).get("walls", "particles") != "particles":
+            raise SceneRefused("\"smooth\": smooth walls are not set up in the YADE box case, which moves walls "
+                               "of particles", key="box.walls")
         kind = s.get("integrator", {}).get("kind", "gear")
         if kind not in ("gear", "verlet"):
             raise SceneRefused(f"\"{kind}\": unknown", key="integrator.kind")

@@ -118,6 +118,14 @@ TEST(Checkpoint, BoxVerletResumesBitwise) {
   check_resume<BoxSim>([&] { return make_box(s); }, 1500, 3000, "box_verlet.ckpt");
 }
 
+// Smooth walls keep no state: the shaker's time is the run's.
+TEST(Checkpoint, BoxSmoothWallsResumesBitwise) {
+  omp_set_num_threads(2);
+  const BoxScene s = box({"particles.count=200", "box.width=24", "run.settle=0.05", "box.walls=smooth"});
+  ASSERT_TRUE(s.smooth_walls);
+  check_resume<BoxSim>([&] { return make_box(s); }, 1500, 3000, "box_smooth.ckpt");
+}
+
 // What the saved reference positions are for: a list built from the current
 // positions instead sorts and sums in another order, and the runs part.
 TEST(Checkpoint, ListFromCurrentPositionsIsNotBitwise) {

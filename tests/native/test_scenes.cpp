@@ -2,9 +2,11 @@
 // particle counts (within 2 %); bad scene input fails with the file, key and reason.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "scene/drum_scene.hpp"
 
@@ -235,5 +237,55 @@ TEST(BoxScenes, ShakerFollowsTheSine) {
   for (double t : {1.2, 1.9, 5.0}) {
     const double h = 1e-6;
     EXPECT_NEAR(m.vy(t), (m.y(t + h) - m.y(t - h)) / (2 * h), 1e-5);
+  }
+}
+
+// box.walls: the paper's walls of particles by default, flat walls on request;
+// anything else is refused naming the file, the line, the key and the choices.
+TEST(BoxScenes, WallKindIsReadAndABadOneRefused) {
+  const auto path = (source_dir() / "scenes/box/f3.0_big.toml").string();
+  {
+    SceneFile f(path, {});
+    EXPECT_FALSE(read_box_scene(f).smooth_walls);
+  }
+  {
+    SceneFile f(path, {"box.walls=smooth"});
+    const BoxScene s = read_box_scene(f);
+    EXPECT_TRUE(s.smooth_walls);
+    std::vector<Eigen::Vector2d> anchors;
+    double top = 0;
+    const auto p = box_particles(s, anchors, &top);
+    EXPECT_TRUE(anchors.empty());
+    for (auto sp : p.species) EXPECT_NE(sp, kWallSpecies);
+    EXPECT_GE(top, s.wall_height);
+    // no wall particles, so no gaps between them to refuse
+    SceneFile g(path, {"box.walls=smooth", "box.wall_spacing=4.0"});
+    EXPECT_NO_THROW(read_box_scene(g));
+  }
+  std::string text;
+  {
+    std::ifstream in(path);
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const auto at = text.find("wall_spacing = 2.0\n");
+  ASSERT_NE(at, std::string::npos);
+  text.insert(at, "walls = \"flat\"\n");
+  const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+  const auto bad = write_temp("granular_box_walls_test.toml", text);
+  try {
+    SceneFile f(bad, {});
+    read_box_scene(f);
+    FAIL() << "accepted box.walls = \"flat\"";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(std::string(e.what()), bad + ":" + std::to_string(line) +
+                                         ": box.walls: unknown value \"flat\" (allowed: \"particles\", \"smooth\")");
+  }
+  try {
+    SceneFile f(path, {"box.walls=smoth"});
+    read_box_scene(f);
+    FAIL() << "accepted box.walls = \"smoth\"";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": box.walls (--set): unknown value \"smoth\"; did you mean \"smooth\"? "
+                                            "(allowed: \"particles\", \"smooth\")");
   }
 }

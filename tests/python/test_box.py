@@ -513,6 +513,41 @@ def test_native_run(native_run):
     VelocityField().compute(run).plot()
 
 
+@pytest.fixture(scope="module")
+def native_smooth_run(tmp_path_factory):
+    if not GRANULAR.exists():
+        pytest.skip("build/granular is missing")
+    out = tmp_path_factory.mktemp("box_smooth") / "smooth.h5"
+    subprocess.run([str(GRANULAR), "run", str(REPO_ROOT / "scenes/box/f3.0_big.toml"),
+                    "--set", "run.duration=2", "--set", "run.settle=1", "--set", "particles.count=200",
+                    "--set", "box.width=30", "--set", "box.walls=smooth", "-o", str(out), "--threads", "1", "-q"],
+                   check=True, cwd=REPO_ROOT, capture_output=True, timeout=120)
+    return read_run(out)
+
+
+def test_native_run_smooth_walls(native_smooth_run):
+    """box.walls = "smooth": no wall particles in the frames, every grain inside
+    the flat walls' surfaces (floor y = y_box, sides x = +-W/2) to within a
+    contact's overlap (up to ~0.1 cm here, as against walls of particles; a wall
+    a wall-particle radius out of place lets grains 1 cm past it), and the box
+    observables as with walls of particles."""
+    run = native_smooth_run
+    assert run.scene["box"]["walls"] == "smooth"
+    fr = run.frames
+    assert not np.any(fr.species == 2)
+    assert fr.n_frames >= 7  # the settled frame and one per cycle
+    half, r = 0.5 * 30.0, 0.5 * fr.diameter
+    y_box = Shaker(run).y(fr.time)[:, None]
+    assert np.all(np.abs(fr.position[..., 0]) + r <= half + 0.2)
+    assert np.all(fr.position[..., 1] - r - y_box >= -0.2)
+    tr = read_trace(run)
+    np.testing.assert_allclose(Shaker(run).y(tr["time"]), tr["box_y"], atol=1e-9)
+    assert 10.0 < bed_height(run) < 40.0
+    d = observe_box(run)
+    assert _all_finite_numbers(d)
+    assert abs(d["big_disk_height"]["start_height"]) < 0.5  # the big disk starts on the floor
+
+
 def test_onset_command_on_real_runs(tmp_path):
     """compare onset over runs: grouping by frequency, a disk that does not
     reach the top counts as not risen."""

@@ -43,6 +43,18 @@ CASES = {
     "grain_over_the_wall": (
         BOX, SMALL_BOX + ["shaking.frequency=12", "box.wall_height=25", "run.settle=0.3", "run.duration=3"],
         ["escaped the box", "flew over a side wall", "raise box.wall_height"]),
+    # The same over smooth walls (box.walls = "smooth"), which end at the same height.
+    "grain_over_the_smooth_wall": (
+        BOX, SMALL_BOX + ["box.walls=smooth", "shaking.frequency=12", "box.wall_height=25", "run.settle=0.3",
+                          "run.duration=3"],
+        ["escaped the box", "flew over a side wall", "raise box.wall_height"]),
+    # Smooth walls are not in the neighbour list: their overlaps have a check of
+    # their own. One layer of grains and the big disk (m = 100 g) on a floor
+    # 3000x softer than the paper's sink into the floor, not into each other.
+    "floor_too_soft": (
+        BOX, SMALL_BOX + ["box.walls=smooth", "particles.count=10", "contact.young=1000", "run.settle=1",
+                          "run.duration=0.5"],
+        ["overlaps the floor by", "% of its contact distance with the wall", "too soft for the load"]),
 }
 
 

@@ -154,14 +154,14 @@ nlohmann::json info_json(const Loaded& l) {
   } else {
     const BoxScene& s = *l.box;
     std::vector<Eigen::Vector2d> anchors;
-    const auto p = box_particles(s, anchors);
+    double top = 0.0;  // the side walls' top centre, particle or smooth
+    const auto p = box_particles(s, anchors, &top);
     const auto c = species_counts(p);
-    double top = 0.0;
-    for (const auto& a : anchors) top = std::max(top, a.y());
     d["particles"] = p.size();
     d["grains"] = c[0];
     d["big_disks"] = c[1];
     d["wall_particles"] = c[2];
+    d["walls"] = s.smooth_walls ? "smooth" : "particles";
     d["wall_height_built"] = top + s.wall_radius;
     const double w = 2.0 * M_PI * s.frequency;
     d["peak_acceleration_over_g"] = s.gravity > 0 ? s.amplitude * w * w / s.gravity : 0.0;  // Gamma

@@ -20,8 +20,10 @@ struct CylinderWall {
   double d_wall = 1.0;     // d_w
   WallLever lever;         // reading of the spin term, see wall_contact.hpp
 
+  // The time of the positions (the wall interface, engine/simulation.hpp) is not
+  // needed: the wall turns about its own axis, so its surface never moves.
   template <class Law>
-  void apply(ParticleStore<3>& p, const Law& law, std::size_t lo, std::size_t hi) const {
+  void apply(ParticleStore<3>& p, const Law& law, std::size_t lo, std::size_t hi, double /*t*/) const {
     const double half_d = 0.5 * diameter;
     for (std::size_t i = lo; i < hi; ++i) {
       const Eigen::Vector3d& x = p.x[i];

@@ -16,8 +16,10 @@ struct EndCaps {
   double d_wall = 1.0;
   WallLever lever;  // see wall_contact.hpp
 
+  // The time of the positions (the wall interface, engine/simulation.hpp) is not
+  // needed: the caps turn in their own planes, so their surfaces never move.
   template <class Law>
-  void apply(ParticleStore<3>& p, const Law& law, std::size_t lo, std::size_t hi) const {
+  void apply(ParticleStore<3>& p, const Law& law, std::size_t lo, std::size_t hi, double /*t*/) const {
     const double half_l = 0.5 * length;
     for (std::size_t i = lo; i < hi; ++i) {
       const Eigen::Vector3d& x = p.x[i];

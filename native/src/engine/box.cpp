@@ -16,11 +16,13 @@ namespace granular {
 namespace {
 
 template <class Sim>
+constexpr bool kSmooth = std::tuple_size_v<decltype(Sim::walls)> > 0;  // FlatBoxWalls, no wall particles
+
+template <class Sim>
 void configure(Sim& sim, const BoxScene& s) {
   std::vector<Eigen::Vector2d> anchors;
-  sim.p = box_particles(s, anchors);
-  double top = 0.0;
-  for (const auto& a : anchors) top = std::max(top, a.y());
+  double top = 0.0;  // the side walls' top centre (particle or smooth)
+  sim.p = box_particles(s, anchors, &top);
   const double xw = 0.5 * s.width + s.wall_radius;
   sim.box.lo = Eigen::Vector2d(-xw - s.wall_radius - 1.0, -2.0 * s.wall_radius - s.amplitude - 1.0);
   sim.box.hi = Eigen::Vector2d(xw + s.wall_radius + 1.0, top + 50.0);
@@ -43,8 +45,7 @@ void configure(Sim& sim, const BoxScene& s) {
   }
   sim.integrator.dt = s.dt;
   sim.integrator.gravity = Eigen::Vector2d(0.0, -s.gravity);  // F = -m g y^
-  auto& m = sim.integrator.motion;
-  m.anchor = anchors;
+  ShakerMotion<2> m;
   m.amplitude = s.amplitude;
   m.f0 = s.frequency;
   m.f1 = s.ramp_to;
@@ -52,33 +53,75 @@ void configure(Sim& sim, const BoxScene& s) {
   m.ramp_start = s.ramp_start;
   m.ramp_time = s.ramp_time;
   m.startup_cycles = s.startup_cycles;
+  if constexpr (kSmooth<Sim>) {
+    FlatBoxWalls& w = std::get<FlatBoxWalls>(sim.walls);
+    w.half_width = 0.5 * s.width;
+    w.wall_radius = s.wall_radius;
+    w.wall_inv_mass = s.wall_infinite_mass ? 0.0 : 1.0 / s.mass(s.wall_radius);  // as add_wall's particles
+    w.side_top = top;
+    w.shaker = m;
+  } else {
+    m.anchor = anchors;
+    sim.integrator.motion = m;
+    sim.exclude_species = kWallSpecies;  // wall particles do not interact with each other
+  }
   sim.skin = s.skin;
-  sim.exclude_species = kWallSpecies;  // wall particles do not interact with each other
   sim.init();
+}
+
+// The side walls' top surface at rest.
+template <class Sim>
+double wall_top(const Sim& sim, const BoxScene& s) {
+  if constexpr (kSmooth<Sim>) {
+    return std::get<FlatBoxWalls>(sim.walls).side_top + s.wall_radius;
+  } else {
+    double top = -INFINITY;  // highest side-wall particle's top
+    for (const auto& a : sim.integrator.motion.anchor) top = std::max(top, a.y() + s.wall_radius);
+    return top;
+  }
 }
 
 template <class Sim>
 void check_contained(const Sim& sim, const BoxScene& s) {
-  const auto& m = sim.integrator.motion;
+  const auto& m = shaker_of(sim);
   const double xw = 0.5 * s.width + s.wall_radius, floor = m.y(sim.time);
   for (std::size_t i = 0; i < sim.p.size(); ++i) {
     if (sim.p.species[i] == kWallSpecies) continue;
     const auto& x = sim.p.x[i];
     if (std::abs(x.x()) > xw || x.y() < floor - s.wall_radius || !std::isfinite(x.squaredNorm())) {
       std::ostringstream os;
-      double wall_top = -INFINITY;  // highest side-wall particle's top, at rest
-      for (const auto& a : m.anchor) wall_top = std::max(wall_top, a.y() + s.wall_radius);
-      wall_top += m.y(sim.time);
+      const double top = wall_top(sim, s) + m.y(sim.time);
       os << "grain id " << sim.p.id[i] << " escaped the box at t = " << sim.time << " s, position (" << x.x()
          << ", " << x.y() << ") cm";
-      if (std::abs(x.x()) > xw && x.y() > wall_top - 2.0 * s.radius_max)
-        os << ": it flew over a side wall (top at y = " << wall_top
+      if (std::abs(x.x()) > xw && x.y() > top - 2.0 * s.radius_max)
+        os << ": it flew over a side wall (top at y = " << top
            << " cm); raise box.wall_height or shake less hard (shaking.frequency, shaking.amplitude)";
+      else if (kSmooth<Sim>)
+        os << ": it passed through the smooth walls (box.walls = \"smooth\"); reduce integrator.dt ("
+           << sim.stability_hint << ")";
       else
         os << ": it passed through the walls; close the wall-particle gaps (box.wall_spacing) or reduce "
               "integrator.dt (" << sim.stability_hint << ")";
       throw UnstableError(os.str());
     }
+  }
+}
+
+// check_health (engine/health.hpp) sees the wall particles' contacts in the
+// neighbour list; smooth walls are not in it, so their overlaps are checked
+// here against the same limit.
+template <class Sim>
+void check_smooth_walls(const Sim& sim, const HealthLimits& lim) {
+  if constexpr (kSmooth<Sim>) {
+    const auto o = std::get<FlatBoxWalls>(sim.walls).deepest(sim.p, sim.time);
+    if (o.fraction <= lim.max_overlap) return;
+    std::ostringstream os;
+    os << "simulation unstable at step " << sim.step_count << " (t = " << sim.time << "): particle id "
+       << sim.p.id[o.index] << " overlaps the " << o.wall << " by " << 100.0 * o.fraction
+       << " % of its contact distance with the wall (limit " << 100.0 * lim.max_overlap
+       << " %): the contacts are too soft for the load, or a collision was not resolved. Likely cause: "
+       << lim.dt_hint() << ", or a contact stiffness too low for the weight it carries.";
+    throw UnstableError(os.str());
   }
 }
 
@@ -139,7 +182,7 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
     }
     if (out && trace && has_big) {
       const std::size_t b = big_index(sim);
-      out->series(trace_h, {{sim.time}, {c}, {sim.integrator.motion.y(sim.time)},
+      out->series(trace_h, {{sim.time}, {c}, {shaker_of(sim).y(sim.time)},
                    {sim.p.x[b].x(), sim.p.x[b].y()}, {sim.p.v[b].x(), sim.p.v[b].y()}});
     }
   };
@@ -152,7 +195,10 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
   const double n = static_cast<double>(sim.p.size());
   for (long k = start + 1; k <= total; ++k) {
     sim.step();
-    if (k % health.every == 0 || k == total) check_health(sim, health);
+    if (k % health.every == 0 || k == total) {
+      check_health(sim, health);
+      check_smooth_walls(sim, health);
+    }
     observe(k == settle_steps || k == total);
     checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total);
     if (progress && (k % 500 == 0 || k == total)) {
@@ -178,16 +224,33 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
   return r;
 }
 
+// The scene's choices, one at a time, down to one alternative of BoxSim.
+template <class Law, template <int, class> class Integrator>
+void emplace_walls(BoxSim& sim, const BoxScene& s) {
+  if (s.smooth_walls)
+    sim.emplace<SmoothBoxOf<Law, Integrator>>();
+  else
+    sim.emplace<Simulation<2, Law, Integrator<2, ShakerMotion<2>>>>();
+}
+
+template <class Law>
+void emplace_integrator(BoxSim& sim, const BoxScene& s) {
+  if (s.gear)
+    emplace_walls<Law, Gear5>(sim, s);
+  else
+    emplace_walls<Law, Leapfrog>(sim, s);
+}
+
 }  // namespace
 
 BoxSim make_box(const BoxScene& s) {
   BoxSim sim;
-  if (!s.viscel && !s.literal_damping && s.gear) sim.emplace<0>();
-  if (!s.viscel && !s.literal_damping && !s.gear) sim.emplace<1>();
-  if (s.literal_damping && s.gear) sim.emplace<2>();
-  if (s.literal_damping && !s.gear) sim.emplace<3>();
-  if (s.viscel && s.gear) sim.emplace<4>();
-  if (s.viscel && !s.gear) sim.emplace<5>();
+  if (s.viscel)
+    emplace_integrator<ViscElLaw<2>>(sim, s);
+  else if (s.literal_damping)
+    emplace_integrator<PoeschelHerrmannLaw<2, true>>(sim, s);
+  else
+    emplace_integrator<PoeschelHerrmannLaw<2, false>>(sim, s);
   std::visit([&](auto& v) { configure(v, s); }, sim);
   return sim;
 }

@@ -1,8 +1,11 @@
-// The shaken box as a simulation: the scene's integrator and damping reading
-// pick one concrete Simulation type (held in a std::variant, visited once).
+// The shaken box as a simulation: the scene's contact law, integrator and
+// walls pick one concrete Simulation type (held in a std::variant, visited
+// once). Walls of particles are moved by the integrator (ShakerMotion); smooth
+// walls are a boundary (FlatBoxWalls) and the integrator moves nothing.
 #pragma once
 #include <variant>
 
+#include "boundary/flat_box_walls.hpp"
 #include "contact/poeschel_herrmann.hpp"
 #include "engine/drum.hpp"  // RunReport
 #include "engine/simulation.hpp"
@@ -21,8 +24,25 @@ using BoxGear = Gear5<2, ShakerMotion<2>>;
 using BoxVerlet = Leapfrog<2, ShakerMotion<2>>;
 template <class Integrator>
 using BoxViscElOf = Simulation<2, ViscElLaw<2>, Integrator>;  // YADE's law, for engine comparisons
+// box.walls = "smooth": the same laws and integrators, without wall particles.
+template <class Law, template <int, class> class Integrator>
+using SmoothBoxOf = Simulation<2, Law, Integrator<2, NoMotion>, FlatBoxWalls>;
 using BoxSim = std::variant<BoxSimOf<false, BoxGear>, BoxSimOf<false, BoxVerlet>, BoxSimOf<true, BoxGear>,
-                            BoxSimOf<true, BoxVerlet>, BoxViscElOf<BoxGear>, BoxViscElOf<BoxVerlet>>;
+                            BoxSimOf<true, BoxVerlet>, BoxViscElOf<BoxGear>, BoxViscElOf<BoxVerlet>,
+                            SmoothBoxOf<PoeschelHerrmannLaw<2, false>, Gear5>,
+                            SmoothBoxOf<PoeschelHerrmannLaw<2, false>, Leapfrog>,
+                            SmoothBoxOf<PoeschelHerrmannLaw<2, true>, Gear5>,
+                            SmoothBoxOf<PoeschelHerrmannLaw<2, true>, Leapfrog>, SmoothBoxOf<ViscElLaw<2>, Gear5>,
+                            SmoothBoxOf<ViscElLaw<2>, Leapfrog>>;
+
+// The shaker's motion y_box(t) of a box simulation, wherever its type keeps it.
+template <class Sim>
+const ShakerMotion<2>& shaker_of(const Sim& sim) {
+  if constexpr (std::tuple_size_v<decltype(sim.walls)> > 0)
+    return std::get<FlatBoxWalls>(sim.walls).shaker;
+  else
+    return sim.integrator.motion;
+}
 
 BoxSim make_box(const BoxScene& s);
 

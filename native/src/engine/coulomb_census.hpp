@@ -10,8 +10,11 @@
 // (contact/viscel.hpp) it is the set where a cap with the mapped law's mu would
 // have bound. Pairs are counted per unordered species pair, wall contacts per
 // species; the walls are evaluated on a copy of the particles, so the state of
-// the run is untouched.
+// the run is untouched. A wall that evaluates the pair law against a virtual
+// wall particle (boundary/flat_box_walls.hpp) is counted as that pair, with the
+// wall particle's species, as a wall of particles would be.
 #pragma once
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <tuple>
@@ -49,6 +52,15 @@ struct CountingLaw {
     const auto res = law.wall_force(rp, di, d_iw, viw, wi, lever, ci, inv_mi);
     c.wall_contacts[ci] += 1.0;
     if (at_cap(res.f, V(rp / rp.norm()), law.wall_coulomb_mu(ci))) c.wall_at_cap[ci] += 1.0;
+    return res;
+  }
+  template <class V, class A>
+  auto pair_force(const V& dr, double r2, double di, double dj, const V& vij, const A& wi, const A& wj, int ci,
+                  int cj, double inv_mi, double inv_mj) const {
+    const auto res = law.pair_force(dr, r2, di, dj, vij, wi, wj, ci, cj, inv_mi, inv_mj);
+    const int key = std::min(ci, cj) * Law::kSpecies + std::max(ci, cj);
+    c.pair_contacts[key] += 1.0;
+    if (at_cap(res.f, V(dr / std::sqrt(r2)), law.coulomb_mu(ci, cj))) c.pair_at_cap[key] += 1.0;
     return res;
   }
 };
@@ -90,7 +102,7 @@ CoulombCensus coulomb_census(const Sim& sim) {
   if constexpr (std::tuple_size_v<decltype(sim.walls)> > 0) {
     auto q = p;  // the walls add to q's forces, not the run's
     const census_detail::CountingLaw<Law> counting{sim.law, c};
-    std::apply([&](const auto&... w) { (w.apply(q, counting, 0, n), ...); }, sim.walls);
+    std::apply([&](const auto&... w) { (w.apply(q, counting, 0, n, sim.time), ...); }, sim.walls);
   }
   return c;
 }

@@ -88,7 +88,7 @@ class Simulation {
         finished = go_on;
         ts.first = PhaseTimers::Clock::now();
       }
-      if (go_on) forces_and_finish(t, nt, lo, hi, ts);
+      if (go_on) forces_and_finish(t, nt, lo, hi, time + integrator.dt, ts);
     }
     timers.add(Phase::integrate, ts.first - ts.start);
     if (!finished) {
@@ -104,7 +104,7 @@ class Simulation {
         const auto [lo, hi] = thread_block(p.size(), nt, t);
 #pragma omp master
         ts.first = PhaseTimers::Clock::now();
-        forces_and_finish(t, nt, lo, hi, ts);
+        forces_and_finish(t, nt, lo, hi, time + integrator.dt, ts);
       }
     }
     timers.add(Phase::pairs, ts.pairs_done - ts.first);
@@ -142,7 +142,7 @@ class Simulation {
     {
       const int t = omp_get_thread_num();
       const auto [lo, hi] = thread_block(p.size(), nt, t);
-      forces_in_region(t, nt, lo, hi, ts);
+      forces_in_region(t, nt, lo, hi, time, ts);
     }
   }
 
@@ -215,8 +215,8 @@ class Simulation {
                                    walls_done = start, end = start;
   };
 
-  void forces_and_finish(int t, int nt, std::size_t lo, std::size_t hi, Stamps& ts) {
-    forces_in_region(t, nt, lo, hi, ts);
+  void forces_and_finish(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts) {
+    forces_in_region(t, nt, lo, hi, t_pos, ts);
     integrator.second_half(p, box, lo, hi);
 #pragma omp master
     ts.end = PhaseTimers::Clock::now();
@@ -228,7 +228,8 @@ class Simulation {
   // buffer is the store's own force column, so one thread needs no buffer and
   // no reduction. Another thread zeroes, and a reducer reads, only the chunks
   // of a buffer its owner writes, so little data crosses between cores.
-  void forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, Stamps& ts) {
+  // t_pos: the time of the positions (moving walls are placed at it).
+  void forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts) {
     const std::size_t n = p.size();
 #pragma omp single
     if (static_cast<int>(fbuf_.size()) != nt - 1 || (nt > 1 && fbuf_[0].size() != n)) {
@@ -289,7 +290,7 @@ class Simulation {
 #pragma omp master
     ts.pairs_done = PhaseTimers::Clock::now();
     // Walls act on the thread's own block only: no barrier needed.
-    std::apply([&](const auto&... w) { (w.apply(p, law, lo, hi), ...); }, walls);
+    std::apply([&](const auto&... w) { (w.apply(p, law, lo, hi, t_pos), ...); }, walls);
 #pragma omp master
     ts.walls_done = PhaseTimers::Clock::now();
   }

@@ -34,6 +34,7 @@ BoxScene read_fields(SceneFile& f) {
   s.wall_radius = f.positive("box.wall_radius", f.number("box.wall_radius", 1.0));
   s.wall_spacing = f.positive("box.wall_spacing", f.number("box.wall_spacing", 2.0));
   s.wall_infinite_mass = f.choice("box.wall_mass", {"particle", "infinite"}, "particle") == "infinite";
+  s.smooth_walls = f.choice("box.walls", {"particles", "smooth"}, "particles") == "smooth";
 
   s.amplitude = f.non_negative("shaking.amplitude", f.number("shaking.amplitude", 2.0));
   s.frequency = f.positive("shaking.frequency", f.number("shaking.frequency"));
@@ -98,7 +99,7 @@ BoxScene read_fields(SceneFile& f) {
     f.fail("box.width", "too small for its particles: " + number_text(s.width) + " is narrower than one grain of radius " +
                             number_text(s.radius_max) + " (particles.radius_max, " + f.origin("particles.radius_max") +
                             ") with its placement clearance (" + number_text(2.0 * s.radius_max + 0.1) + ")");
-  if (s.wall_spacing > 2.0 * s.wall_radius + 2.0 * s.radius_min)
+  if (!s.smooth_walls && s.wall_spacing > 2.0 * s.wall_radius + 2.0 * s.radius_min)
     f.fail("box.wall_spacing", "leaves gaps wider than the smallest grain");
   // Limits (scene_file.hpp), before box_particles counts lattice rows and wall
   // particles in integers.
@@ -108,7 +109,7 @@ BoxScene read_fields(SceneFile& f) {
   const double packed = std::ceil(static_cast<double>(s.count) / per_row) * pitch;
   const double walls = (s.width + 2.0 * s.wall_radius) / s.wall_spacing +
                        2.0 * (std::max(s.wall_height, packed) + s.wall_radius) / s.wall_spacing;
-  if (walls > kMaxParticles)
+  if (!s.smooth_walls && walls > kMaxParticles)
     f.fail(s.wall_height > packed ? "box.wall_height" : "box.width",
            "the walls would need about " + number_text(walls) + " wall particles (box.wall_spacing " + number_text(s.wall_spacing) +
                "), more than one run can hold (" + number_text(kMaxParticles) + ")");
@@ -135,7 +136,7 @@ double BoxScene::cycle(double t) const {
   return m.phase(t) / (2.0 * M_PI);
 }
 
-ParticleStore<2> box_particles(const BoxScene& s, std::vector<Eigen::Vector2d>& anchors) {
+ParticleStore<2> box_particles(const BoxScene& s, std::vector<Eigen::Vector2d>& anchors, double* side_top) {
   const double rw = s.wall_radius, half = 0.5 * s.width;
   std::mt19937_64 gen(s.seed);
   auto uni = [&] { return static_cast<double>(gen() >> 11) * 0x1.0p-53; };
@@ -172,17 +173,21 @@ ParticleStore<2> box_particles(const BoxScene& s, std::vector<Eigen::Vector2d>& 
     if (s.wall_infinite_mass) p.inv_m.back() = 0.0;
     anchors.emplace_back(x, y);
   };
-  // Floor: centres at y = -rw (floor surface at y = 0), spanning the side walls.
-  const double xw = half + rw;  // side-wall centre lines
-  const int n_floor = static_cast<int>(std::ceil(2 * xw / s.wall_spacing));
-  for (int k = 0; k <= n_floor; ++k) add_wall(-xw + 2 * xw * k / n_floor, -rw);
   // Side walls as high as asked, and at least above the loose initial packing.
   const double height = std::max(s.wall_height, top + pitch);
-  const int n_side = static_cast<int>(std::ceil((height + rw) / s.wall_spacing));
-  for (int k = 1; k <= n_side; ++k) {
-    const double y = -rw + k * s.wall_spacing;
-    add_wall(-xw, y);
-    add_wall(xw, y);
+  const double rows = std::ceil((height + rw) / s.wall_spacing);  // side-wall particles per wall
+  if (side_top) *side_top = -rw + rows * s.wall_spacing;
+  if (!s.smooth_walls) {
+    const int n_side = static_cast<int>(rows);  // read_fields bounds it
+    // Floor: centres at y = -rw (floor surface at y = 0), spanning the side walls.
+    const double xw = half + rw;  // side-wall centre lines
+    const int n_floor = static_cast<int>(std::ceil(2 * xw / s.wall_spacing));
+    for (int k = 0; k <= n_floor; ++k) add_wall(-xw + 2 * xw * k / n_floor, -rw);
+    for (int k = 1; k <= n_side; ++k) {
+      const double y = -rw + k * s.wall_spacing;
+      add_wall(-xw, y);
+      add_wall(xw, y);
+    }
   }
   if (s.big) {
     const double m = s.mass(s.big_radius);

@@ -17,6 +17,9 @@ struct BoxScene {
   double wall_radius = 1.0;    // radius of the wall particles, cm
   double wall_spacing = 2.0;   // centre distance of neighbouring wall particles (2 r: touching)
   bool wall_infinite_mass = false;  // m_eff with the wall particle's own mass (false) or the grain's (true)
+  // Walls of particles (the paper's) or flat walls with the same law, surfaces
+  // and height (boundary/flat_box_walls.hpp); box.wall_spacing is then unused.
+  bool smooth_walls = false;
   // [shaking]: y_box = A sin(2 pi f t)
   double amplitude = 2.0, frequency = 3.0, ramp_to = 3.0, ramp_start = 0.0, ramp_time = 0.0;
   double startup_cycles = 2.0;  // amplitude rises over the first cycles (avoids a jolt)
@@ -47,10 +50,12 @@ struct BoxScene {
 
 BoxScene read_box_scene(SceneFile& f);
 
-// Wall particles (species 2), the big disk (species 1) and the small disks
-// (species 0) placed on a loose lattice above the floor; the initial state is
-// then settled by the run itself. Also returns the wall particles' rest
-// positions, indexed by id.
-ParticleStore<2> box_particles(const BoxScene& s, std::vector<Eigen::Vector2d>& anchors);
+// Wall particles (species 2; none with smooth walls), the big disk (species 1)
+// and the small disks (species 0) placed on a loose lattice above the floor;
+// the initial state is then settled by the run itself. Also returns the wall
+// particles' rest positions, indexed by id, and in side_top (if given) the
+// height at rest of the side walls' top particle's centre, which smooth walls
+// share: the walls rise to box.wall_height and at least above the packing.
+ParticleStore<2> box_particles(const BoxScene& s, std::vector<Eigen::Vector2d>& anchors, double* side_top = nullptr);
 
 }  // namespace granular
