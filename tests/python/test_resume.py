@@ -248,3 +248,25 @@ def test_resume_of_a_file_in_the_pre_swmr_format(tmp_path, drum_ref):
     assert r.returncode == 0, r.stderr
     assert "older HDF5 format" in r.stderr and "continued without it" in r.stderr
     assert_bitwise_equal(drum_ref, out)
+
+
+def test_checkpoint_from_before_a_scene_key_existed(tmp_path, box_ref):
+    """A checkpoint written before box.walls existed resumes at the value that
+    reproduces it ("particles"), bit for bit, and only at that value."""
+    import json
+    out = tmp_path / "box.h5"
+    p = start_and_wait_for_checkpoint(BOX, BOX_SETS, out, "--checkpoint-steps", 5000)
+    p.kill()
+    p.communicate(timeout=60)
+    ckpt = Path(str(out) + ".ckpt")
+    with h5py.File(ckpt, "r+") as h5:
+        raw = h5.attrs["scene_json"]
+        scene = json.loads(raw.decode() if isinstance(raw, bytes) else raw)
+        assert scene["box"].pop("walls") == "particles"
+        h5.attrs["scene_json"] = json.dumps(scene)
+    r = run(BOX, BOX_SETS + ['box.walls="smooth"'], out, "--resume")
+    assert r.returncode == 2, r.stderr
+    assert "box.walls" in r.stderr and "existed" in r.stderr and '"particles"' in r.stderr, r.stderr
+    r = run(BOX, BOX_SETS, out, "--resume")
+    assert r.returncode == 0, r.stderr
+    assert_bitwise_equal(box_ref, out)

@@ -212,6 +212,13 @@ void flatten(const nlohmann::json& j, const std::string& prefix, std::map<std::s
   }
 }
 
+// Scene keys added to the engine after checkpoints were already being written,
+// with the value that reproduces the run as it was before the key existed. A
+// checkpoint's scene that lacks one of these resumes only at that value.
+const std::map<std::string, std::string> kKeysAddedLater = {
+    {"box.walls", "\"particles\""},
+};
+
 // A run resumes only with the scene it was started with; only its length
 // (run.rotations, run.duration) may grow.
 void check_same_scene(const std::string& ckpt_path, const std::string& saved_json, const std::string& json) {
@@ -224,8 +231,15 @@ void check_same_scene(const std::string& ckpt_path, const std::string& saved_jso
                        (b.count(k) ? b[k] : std::string("nothing")) +
                        "; resume with the same scene file and --set options (only run.rotations or run.duration "
                        "may change)");
-  for (const auto& [k, v] : b)
-    if (!a.count(k)) throw UsageError(ckpt_path + ": the scene now has " + k + ", which the checkpoint's scene had not");
+  for (const auto& [k, v] : b) {
+    if (a.count(k)) continue;
+    const auto added = kKeysAddedLater.find(k);
+    if (added != kKeysAddedLater.end() && added->second == v) continue;  // the run as it was
+    throw UsageError(ckpt_path + ": the scene now has " + k + " = " + v + ", which the checkpoint's scene had not" +
+                     (added != kKeysAddedLater.end() ? " (it was written before " + k + " existed, i.e. with " + k +
+                                                           " = " + added->second + ")"
+                                                     : std::string()));
+  }
 }
 
 int run_scene(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
