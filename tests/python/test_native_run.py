@@ -152,3 +152,26 @@ def test_bench_memory_is_the_runs_own_and_grows_with_the_particles():
     marginal = (m2 - m1) / (n2 - n1)
     assert 50 < marginal < 5000, f"{marginal:.0f} bytes per particle"
     del ballast
+
+
+def test_bench_counts_list_builds_and_a_wider_skin_builds_less_often():
+    """granular bench --json reports the neighbour-list builds of the timed
+    steps; a skin three times wider must rebuild less often (the list is
+    rebuilt when displacements could have closed the skin), and compare
+    bench's skin sweep groups and orders what it reads."""
+    from compare.bench import skin_sweep
+    rows = []
+    for skin in (0.6, 0.2):
+        out = subprocess.run([str(BIN), "bench", str(ROOT / "scenes/drum/A.toml"), "--threads", "1",
+                              "--rotations", "0.1", "--settle", "0.2", "--repeat", "1", "--json",
+                              "--set", "drum.length=32", "--set", f"neighbor.skin={skin}"],
+                             capture_output=True, text=True, check=True).stdout
+        row = json.loads(out)[0]
+        assert 0 < row["neighbor_builds"] <= row["steps"]
+        rows.append({"key": f"skin-drum-native-rapaport-{skin:g}", "median": row["particle_steps_per_second"],
+                     "min": 0.0, "max": 0.0, "builds_per_step": row["neighbor_builds"] / row["steps"]})
+    sweep = skin_sweep(rows + [{"key": "drum-native-linear-1t", "median": 1.0, "min": 1.0, "max": 1.0}])
+    assert list(sweep) == ["drum"]
+    narrow, wide = sweep["drum"]
+    assert (narrow["skin"], wide["skin"]) == (0.2, 0.6)
+    assert wide["builds_per_step"] < 0.7 * narrow["builds_per_step"], sweep
