@@ -465,16 +465,21 @@ def test_node_frames_and_settled_frame(tmp_path):
 
 # ------------------------------------------------------------------ real native run
 
-@pytest.fixture(scope="module")
-def native_run(tmp_path_factory):
+def _small_box_run(tmp_path_factory, name, duration, *extra_sets):
+    """A 200-grain, 30 cm box from scenes/box/f3.0_big.toml: 1 s settling, then `duration` s of shaking."""
     if not GRANULAR.exists():
         pytest.skip("build/granular is missing")
-    out = tmp_path_factory.mktemp("box") / "tmp.h5"
+    out = tmp_path_factory.mktemp(name) / f"{name}.h5"
+    sets = [f"run.duration={duration}", "run.settle=1", "particles.count=200", "box.width=30", *extra_sets]
     subprocess.run([str(GRANULAR), "run", str(REPO_ROOT / "scenes/box/f3.0_big.toml"),
-                    "--set", "run.duration=3", "--set", "run.settle=1", "--set", "particles.count=200",
-                    "--set", "box.width=30", "-o", str(out), "--threads", "1", "-q"],
+                    *[a for kv in sets for a in ("--set", kv)], "-o", str(out), "--threads", "1", "-q"],
                    check=True, cwd=REPO_ROOT, capture_output=True, timeout=120)
     return read_run(out)
+
+
+@pytest.fixture(scope="module")
+def native_run(tmp_path_factory):
+    return _small_box_run(tmp_path_factory, "box", 3)
 
 
 def _all_finite_numbers(x):
@@ -515,14 +520,7 @@ def test_native_run(native_run):
 
 @pytest.fixture(scope="module")
 def native_smooth_run(tmp_path_factory):
-    if not GRANULAR.exists():
-        pytest.skip("build/granular is missing")
-    out = tmp_path_factory.mktemp("box_smooth") / "smooth.h5"
-    subprocess.run([str(GRANULAR), "run", str(REPO_ROOT / "scenes/box/f3.0_big.toml"),
-                    "--set", "run.duration=2", "--set", "run.settle=1", "--set", "particles.count=200",
-                    "--set", "box.width=30", "--set", "box.walls=smooth", "-o", str(out), "--threads", "1", "-q"],
-                   check=True, cwd=REPO_ROOT, capture_output=True, timeout=120)
-    return read_run(out)
+    return _small_box_run(tmp_path_factory, "box_smooth", 2, "box.walls=smooth")
 
 
 def test_native_run_smooth_walls(native_smooth_run):
