@@ -121,12 +121,15 @@ def main(argv=None):
     va.add_argument("--lanes", type=int, default=2, help="runs at a time (each engine on one thread)")
     va.add_argument("--rows", default=None,
                     help="comma-separated subset of rows (native-paper, native-linear, lammps, native-viscel, yade)")
+    va.add_argument("--cases", default=None, help="comma-separated subset of the suite's cases (quick: drum_short, "
+                    "box; full: drum_A, box); the report covers only these")
     args = parser.parse_args(argv)
 
     if args.command == "validate":
         from .validate import validate
         rep = validate(args.suite, args.output, lanes=args.lanes,
                        rows=args.rows.split(",") if args.rows else None,
+                       cases=args.cases.split(",") if args.cases else None,
                        log=lambda m: print(m, file=sys.stderr, flush=True))
         return 0 if rep["verdict"] == "pass" else 1
 

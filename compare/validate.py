@@ -137,10 +137,10 @@ class Job:
         return [PY, "-m", f"{self.engine}_cases", "run", scene, "-o", str(out), "-q", *sets]
 
 
-def jobs_of(suite, outdir, rows=None):
+def jobs_of(suite, outdir, rows=None, cases=None):
     rows_of = {"drum": DRUM_ROWS, "box": BOX_ROWS}
     jobs = []
-    for case in SUITES[suite]:
+    for case in [c for c in SUITES[suite] if cases is None or c.name in cases]:
         text = (ROOT / case.scene).read_text()
         for variant, vsets in case.variants():
             for row in [r for r in case.rows if rows is None or r in rows]:
@@ -394,10 +394,14 @@ def box_thresholds(c):
     return out
 
 
-def validate(suite, outdir, lanes=2, rows=None, log=print):
+def validate(suite, outdir, lanes=2, rows=None, cases=None, log=print):
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
-    jobs = jobs_of(suite, outdir, rows)
+    unknown = sorted(set(cases or []) - {c.name for c in SUITES[suite]})
+    if unknown:
+        raise SystemExit(f"validate --cases: no case {', '.join(unknown)} in suite {suite!r} "
+                         f"(cases: {', '.join(c.name for c in SUITES[suite])})")
+    jobs = jobs_of(suite, outdir, rows, cases)
     log(f"validate --suite {suite}: {len(jobs)} runs in {outdir / 'runs'} ({lanes} lanes)")
     metas = run_all(jobs, lanes, log)
     report = analyse(suite, jobs, metas)

@@ -16,13 +16,14 @@ from compare.schedule import box_schedule
 from compare.schema_writer import SchemaWriter
 
 from .common import check_masses, finish, gather, rank, start
-from .scene import SceneRefused
+from .scene import SceneRefused, refuse_frozen_rotation
 
 TYPE = {0: 1, 1: 2, 2: 3}  # grain, big disk, wall particle
 
 
 def refuse_unrepresentable(ini):
     s = ini.scene
+    refuse_frozen_rotation(s, "LAMMPS")
     sh, c = s["shaking"], s.get("contact", {})
     if float(sh.get("ramp_time", 0.0)) > 0.0 and float(sh.get("ramp_to", sh["frequency"])) != float(sh["frequency"]):
         raise SceneRefused(f"{sh['ramp_to']} (with shaking.ramp_time): the frequency ramp is not set up in the "

@@ -15,13 +15,14 @@ from compare.schedule import drum_schedule, lround
 from compare.schema_writer import SchemaWriter, axial_small_fraction
 
 from .common import check_masses, finish, gather, pair_coeff, rank, start
-from .scene import SceneRefused
+from .scene import SceneRefused, refuse_frozen_rotation
 
 TYPE = {0: 1, 1: 2}  # species small, big -> LAMMPS types
 
 
 def refuse_unrepresentable(ini):
     s = ini.scene
+    refuse_frozen_rotation(s, "LAMMPS")
     c = s.get("contact", {})
     if abs(float(c.get("kappa", 0.2)) - 0.2) > 1e-12:
         raise SceneRefused(f"{c['kappa']}: LAMMPS's spheres have I = 2/5 m r^2 (kappa = 0.2)", key="contact.kappa")

@@ -27,6 +27,15 @@ class SceneRefused(Exception):
         self.reason, self.key = reason, key
 
 
+def refuse_frozen_rotation(scene: dict, engine: str) -> None:
+    """particles.rotation = false (grains that do not rotate) is the native
+    engine's measurement of what rotation changes; the peers' cases keep
+    their grains' rotational degrees of freedom."""
+    if scene.get("particles", {}).get("rotation", True) is not True:
+        raise SceneRefused(f"false: the {engine} case does not set up non-rotating grains (a native-only model "
+                           "choice, docs/speed_accuracy.md)", key="particles.rotation")
+
+
 def key_line(scene_path, key: str) -> int:
     """The line of a dotted key in a scene file (0 if it is not there): table
     headers and `name = value` lines, dotted names included, as in our scenes."""

@@ -17,7 +17,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from lammps_cases.scene import ROOT, SceneRefused, is_drum, load_initial, refusal_message
+from lammps_cases.scene import ROOT, SceneRefused, refuse_frozen_rotation, is_drum, load_initial, refusal_message
 
 from .common import write_workdir
 
@@ -27,6 +27,7 @@ HERE = Path(__file__).resolve().parent
 def refuse_unrepresentable(ini) -> None:
     """Raises SceneRefused, naming the key, for what YADE's cases cannot represent."""
     s = ini.scene
+    refuse_frozen_rotation(s, "YADE")
     if ini.kind == "drum":
         kind = s.get("integrator", {}).get("kind", "leapfrog")
         if kind != "leapfrog":

@@ -217,6 +217,7 @@ void flatten(const nlohmann::json& j, const std::string& prefix, std::map<std::s
 // checkpoint's scene that lacks one of these resumes only at that value.
 const std::map<std::string, std::string> kKeysAddedLater = {
     {"box.walls", "\"particles\""},
+    {"particles.rotation", "true"},
 };
 
 // A run resumes only with the scene it was started with; only its length

@@ -2,6 +2,7 @@
 // columns keep one particle's components together. `id` is stable across
 // reorder() and is what output and tests match on.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -43,6 +44,15 @@ struct ParticleStore {
     inv_i.push_back(1.0 / inertia);
     species.push_back(sp);
     id.push_back(static_cast<std::int64_t>(id.size()));
+  }
+
+  // Rotational degrees of freedom off (a scene's particles.rotation = false):
+  // an infinite moment of inertia, so omega stays at zero whatever the torques
+  // and every law sees non-rotating grains. Data, not a branch: a scene with
+  // rotation pays nothing for the option.
+  void freeze_rotation() {
+    std::fill(inv_i.begin(), inv_i.end(), 0.0);
+    std::fill(w.begin(), w.end(), A::Zero());
   }
 
   // Permute every column: new[k] = old[perm[k]]. Applied after a cell sort so

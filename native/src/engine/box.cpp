@@ -66,6 +66,7 @@ void configure(Sim& sim, const BoxScene& s) {
     sim.exclude_species = kWallSpecies;  // wall particles do not interact with each other
   }
   sim.skin = s.skin;
+  if (!s.rotation) sim.p.freeze_rotation();
   sim.init();
 }
 

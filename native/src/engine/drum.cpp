@@ -69,6 +69,7 @@ void configure_common(Sim& sim, const DrumScene& s) {
     caps.d_wall = d_wall;
     caps.lever = cyl.lever;
   }
+  if (!s.rotation) sim.p.freeze_rotation();
   sim.init();
 }
 

@@ -58,6 +58,7 @@ BoxScene read_fields(SceneFile& f) {
   const long seed = f.integer("particles.seed", 1);
   if (seed < 0) f.fail("particles.seed", "must be >= 0");
   s.seed = static_cast<std::uint64_t>(seed);
+  s.rotation = f.flag("particles.rotation", true);
 
   s.big = f.flag("big.enabled", true);
   s.big_radius = f.positive("big.radius", f.number("big.radius", 4.0));

@@ -27,6 +27,9 @@ struct BoxScene {
   long count = 950;
   double radius_min = 0.85, radius_max = 1.15, density = 1.0;
   bool mass_area = false;  // false: m = 2 pi R^2 rho as printed; true: pi R^2 rho
+  // false: the grains do not rotate (I = infinity, omega = 0 throughout); the
+  // paper's disks rotate (the Omega terms of its Eq. (4)).
+  bool rotation = true;
   std::uint64_t seed = 1;
   // [big]
   bool big = true;

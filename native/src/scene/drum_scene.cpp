@@ -105,6 +105,7 @@ DrumScene read_fields(SceneFile& f) {
   const long seed = f.integer("particles.seed", 1);
   if (seed < 0) f.fail("particles.seed", "must be >= 0");
   s.seed = static_cast<std::uint64_t>(seed);
+  s.rotation = f.flag("particles.rotation", true);
 
   s.law = f.choice("contact.law", {"rapaport", "linear", "viscel"}, "rapaport");
   s.impact_speed = f.positive("contact.impact_speed", f.number("contact.impact_speed", 1.0));

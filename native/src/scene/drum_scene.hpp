@@ -21,6 +21,9 @@ struct DrumScene {
   double fill_margin = 1.0, initial_speed = 1.0;
   std::string initial_state = "mixed";  // "mixed" | "segregated_band" | "segregated_halves"
   std::uint64_t seed = 1;
+  // false: the grains do not rotate (I = infinity, omega = 0 throughout); the
+  // paper's grains rotate ("allowing for particle rotation", Sec. III).
+  bool rotation = true;
   // [contact] + [friction] (Sec. III; Table I gamma_s columns)
   std::string law = "rapaport";  // "rapaport" | "linear" (LAMMPS's law, mapped: scene/law_mapping.hpp)
   double gamma_n = 5.0, kappa = 0.2, mu_max = 0.5;
