@@ -5,7 +5,9 @@ analysis, a verdict with numbers (rules: docs/tolerances.md).
 
 Each run is cached in DIR/runs under a hash of the engine, the scene file's
 text and the overrides: a rerun reuses finished runs, so an interrupted suite
-resumes where it stopped. A run is written to a temporary name and renamed
+resumes where it stopped. A cached run is reused only while the scene still
+resolves to what it ran (`granular info --json`, defaults included): a changed
+default in the engine makes it stale, and it runs again. A run is written to a temporary name and renamed
 when its engine exits cleanly, so a half-written file is never reused.
 DIR/report.json holds every number, DIR/report.html the page (report_html.py).
 Exit status 1 when a gating comparison disagrees.
@@ -154,11 +156,37 @@ def jobs_of(suite, outdir, rows=None, cases=None):
     return jobs
 
 
+def resolved_scene(job):
+    """The scene as the engines will run it: every key, defaults included
+    (`granular info --json` with the job's overrides), without the derived counts."""
+    cmd = [str(granular_bin()), "info", str(ROOT / job.case.scene), "--json"]
+    for s in job.sets:
+        cmd += ["--set", s]
+    r = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    if r.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)}: {r.stderr.strip()}")
+    scene = json.loads(r.stdout)
+    scene.pop("derived", None)
+    return scene
+
+
 def run_job(job, log=print):
-    """Run one job unless its output exists; returns its metadata dict."""
+    """Run one job unless its output exists and still matches the scene as it
+    resolves now; returns its metadata dict."""
     meta_path = job.path.with_suffix(".json")
+    resolved = resolved_scene(job)
     if job.path.exists() and meta_path.exists():
-        return json.loads(meta_path.read_text()) | {"cached": True}
+        meta = json.loads(meta_path.read_text())
+        if "resolved_scene" not in meta:  # cached before the check existed: adopt today's resolution
+            meta["resolved_scene"] = resolved
+            meta_path.write_text(json.dumps(meta, indent=1))
+        if meta["resolved_scene"] == resolved:
+            return meta | {"cached": True}
+        stale = job.path.with_name(job.path.stem + ".stale.h5")
+        os.replace(job.path, stale)
+        meta_path.unlink()
+        log(f"  stale: {job.label} ran a scene that now resolves differently (a default changed); "
+            f"moved to {stale.name}, running again")
     job.path.parent.mkdir(parents=True, exist_ok=True)
     tmp = job.path.with_name(job.path.stem + ".partial.h5")
     if tmp.exists():
@@ -171,7 +199,7 @@ def run_job(job, log=print):
     except subprocess.TimeoutExpired:
         rc, err = -1, f"timed out after {job.case.timeout:.0f} s"
     wall = time.monotonic() - t0
-    meta = {"label": job.label, "command": cmd, "wall_seconds": wall, "returncode": rc}
+    meta = {"label": job.label, "command": cmd, "wall_seconds": wall, "returncode": rc, "resolved_scene": resolved}
     if rc != 0:
         lines = [ln for ln in err.strip().splitlines() if ln.strip()]
         meta["error"] = " | ".join(lines[-3:]) if lines else f"exit status {rc}"

@@ -1,0 +1,50 @@
+"""The validation cache (compare/validate.py): a finished run is reused, a run
+whose scene now resolves differently (a changed engine default) runs again, and
+a run cached before the check existed is adopted as it is."""
+import json
+
+import pytest
+
+from compare.validate import Case, jobs_of, resolved_scene, run_job, SUITES
+
+
+@pytest.fixture
+def tiny_suite(monkeypatch):
+    case = Case("tiny", "drum", "scenes/drum/A.toml",
+                ["drum.length=8", "run.rotations=0.02", "run.snapshot_every=0.01", "run.profile_every=0.01"],
+                [1], ["native-paper"], timeout=120)
+    monkeypatch.setitem(SUITES, "tiny", [case])
+    return "tiny"
+
+
+def test_reused_then_stale_after_a_default_changes(tiny_suite, tmp_path):
+    (job,) = jobs_of(tiny_suite, tmp_path)
+    log = []
+    first = run_job(job, log.append)
+    assert first["returncode"] == 0 and not first["cached"], first
+    dt = first["resolved_scene"]["integrator"]["dt"]
+    assert first["resolved_scene"] == resolved_scene(job) and dt > 0
+    again = run_job(job, log.append)
+    assert again["cached"]
+    # The engine's default step "changes": the stored resolution no longer matches.
+    meta_path = job.path.with_suffix(".json")
+    meta = json.loads(meta_path.read_text())
+    meta["resolved_scene"]["integrator"]["dt"] = 2 * dt
+    meta_path.write_text(json.dumps(meta))
+    rerun = run_job(job, log.append)
+    assert not rerun["cached"] and rerun["returncode"] == 0
+    assert job.path.with_name(job.path.stem + ".stale.h5").exists()
+    assert any("stale" in m for m in log), log
+    assert json.loads(meta_path.read_text())["resolved_scene"]["integrator"]["dt"] == dt
+
+
+def test_a_run_cached_before_the_check_is_adopted(tiny_suite, tmp_path):
+    (job,) = jobs_of(tiny_suite, tmp_path)
+    run_job(job)
+    meta_path = job.path.with_suffix(".json")
+    meta = json.loads(meta_path.read_text())
+    del meta["resolved_scene"]
+    meta_path.write_text(json.dumps(meta))
+    m = run_job(job)
+    assert m["cached"]
+    assert "resolved_scene" in json.loads(meta_path.read_text())
