@@ -170,6 +170,24 @@ def resolved_scene(job):
     return scene
 
 
+# Scene keys added to the engine after runs were cached, with the value that
+# reproduces a run made before the key existed (as kKeysAddedLater in
+# native/src/app/main.cpp does for checkpoints): a cached resolution without
+# the key still matches a scene that resolves it to this value.
+KEYS_ADDED_LATER = {("box", "walls"): "particles", ("particles", "rotation"): True}
+
+
+def same_resolution(stored, current):
+    """Whether a cached run's resolved scene is the one the scene resolves to now."""
+    if stored == current:
+        return True
+    stored = {t: dict(v) if isinstance(v, dict) else v for t, v in stored.items()}
+    for (table, key), value in KEYS_ADDED_LATER.items():
+        if key not in stored.get(table, {}) and current.get(table, {}).get(key) == value:
+            stored.setdefault(table, {})[key] = value
+    return stored == current
+
+
 def run_job(job, log=print):
     """Run one job unless its output exists and still matches the scene as it
     resolves now; returns its metadata dict."""
@@ -180,7 +198,7 @@ def run_job(job, log=print):
         if "resolved_scene" not in meta:  # cached before the check existed: adopt today's resolution
             meta["resolved_scene"] = resolved
             meta_path.write_text(json.dumps(meta, indent=1))
-        if meta["resolved_scene"] == resolved:
+        if same_resolution(meta["resolved_scene"], resolved):
             return meta | {"cached": True}
         stale = job.path.with_name(job.path.stem + ".stale.h5")
         os.replace(job.path, stale)

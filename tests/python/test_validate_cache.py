@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from compare.validate import Case, jobs_of, resolved_scene, run_job, SUITES
+from compare.validate import Case, jobs_of, resolved_scene, run_job, same_resolution, SUITES
 
 
 @pytest.fixture
@@ -48,3 +48,16 @@ def test_a_run_cached_before_the_check_is_adopted(tiny_suite, tmp_path):
     m = run_job(job)
     assert m["cached"]
     assert "resolved_scene" in json.loads(meta_path.read_text())
+
+
+def test_a_key_added_later_matches_only_at_its_old_behaviour(tiny_suite, tmp_path):
+    (job,) = jobs_of(tiny_suite, tmp_path)
+    now = resolved_scene(job)
+    before = json.loads(json.dumps(now))
+    del before["particles"]["rotation"]  # cached before particles.rotation existed
+    assert same_resolution(before, now)
+    now["particles"]["rotation"] = False
+    assert not same_resolution(before, now)
+    now["particles"]["rotation"] = True
+    now["particles"]["seed"] = 2
+    assert not same_resolution(before, now)
