@@ -115,6 +115,10 @@ def main(argv=None):
     ss.add_argument("--part", choices=["accuracy", "stability", "all"], default="all")
     ss.add_argument("--engines", default="native,lammps,yade", help="comma-separated subset of native, lammps, yade")
     ss.add_argument("--cached-only", action="store_true", help="report the runs already in DIR; run nothing")
+    gr = sub.add_parser("grid", help="observables of runs named SETUP[_fFREQ]_sSEED.h5, grouped by set-up")
+    gr.add_argument("runs", nargs="+", help="run files (unfinished ones are left out)")
+    gr.add_argument("-o", "--output", default=None, help="directory for grid.json")
+    gr.add_argument("--reference", default=None, help="the set-up the others are compared with")
     va = sub.add_parser("validate", help="run the engines on a suite of scenes and write the agreement report")
     va.add_argument("--suite", choices=["quick", "full"], required=True)
     va.add_argument("-o", "--output", required=True, help="directory: runs/ (the cache), report.json, report.html")
@@ -124,6 +128,12 @@ def main(argv=None):
     va.add_argument("--cases", default=None, help="comma-separated subset of the suite's cases (quick: drum_short, "
                     "box; full: drum_A, box); the report covers only these")
     args = parser.parse_args(argv)
+
+    if args.command == "grid":
+        from .grid import main as grid_main
+        _, text = grid_main(args.runs, args.output, args.reference)
+        print(text, end="")
+        return 0
 
     if args.command == "validate":
         from .validate import validate
