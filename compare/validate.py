@@ -188,11 +188,35 @@ def same_resolution(stored, current):
     return stored == current
 
 
+def same_run_elsewhere(job, resolved):
+    """A finished run of the same case, row, variant and seed cached under
+    another key (another scene text or overrides) whose scene resolved to
+    exactly this one: e.g. a default pinned in the overrides at the value the
+    run had. Returns its .h5 path or None."""
+    stem = job.path.stem
+    prefix = stem[:stem.rindex("_") + 1]
+    for meta_path in sorted(job.path.parent.glob(prefix + "*.json")):
+        h5 = meta_path.with_suffix(".h5")
+        if h5 == job.path or not h5.exists() or h5.stem[len(prefix):].count("_"):
+            continue
+        meta = json.loads(meta_path.read_text())
+        if meta.get("returncode") == 0 and "resolved_scene" in meta and same_resolution(meta["resolved_scene"],
+                                                                                          resolved):
+            return h5
+    return None
+
+
 def run_job(job, log=print):
     """Run one job unless its output exists and still matches the scene as it
     resolves now; returns its metadata dict."""
     meta_path = job.path.with_suffix(".json")
     resolved = resolved_scene(job)
+    if not job.path.exists() and (twin := same_run_elsewhere(job, resolved)) is not None:
+        os.link(twin, job.path)
+        meta = json.loads(twin.with_suffix(".json").read_text()) | {"resolved_scene": resolved,
+                                                                    "same_as": twin.name}
+        meta_path.write_text(json.dumps(meta, indent=1))
+        log(f"  {job.label}: the cached {twin.name} ran this very scene; reused")
     if job.path.exists() and meta_path.exists():
         meta = json.loads(meta_path.read_text())
         if "resolved_scene" not in meta:  # cached before the check existed: adopt today's resolution

@@ -61,3 +61,29 @@ def test_a_key_added_later_matches_only_at_its_old_behaviour(tiny_suite, tmp_pat
     now["particles"]["rotation"] = True
     now["particles"]["seed"] = 2
     assert not same_resolution(before, now)
+
+
+def test_a_run_is_found_under_another_key_when_it_resolved_the_same(tiny_suite, tmp_path, monkeypatch):
+    (job,) = jobs_of(tiny_suite, tmp_path)
+    first = run_job(job)
+    assert not first["cached"]
+    # The same scene with its step pinned at the value it resolved to: a new
+    # key, the same resolved scene, so the run is reused, not repeated.
+    case = SUITES[tiny_suite][0]
+    dt = first["resolved_scene"]["integrator"]["dt"]
+    monkeypatch.setattr(case, "sets", case.sets + [f"integrator.dt={dt}"])
+    (pinned,) = jobs_of(tiny_suite, tmp_path)
+    assert pinned.path != job.path
+    log = []
+    m = run_job(pinned, log.append)
+    assert m["cached"] and m["same_as"] == job.path.name, m
+    assert pinned.path.exists() and any("reused" in x for x in log)
+    # a different step is a different run
+    monkeypatch.setattr(case, "sets", case.sets[:-1] + [f"integrator.dt={dt / 2}"])
+    (halved,) = jobs_of(tiny_suite, tmp_path)
+    assert same_run_elsewhere_is_none(halved)
+
+
+def same_run_elsewhere_is_none(job):
+    from compare.validate import same_run_elsewhere
+    return same_run_elsewhere(job, resolved_scene(job)) is None
