@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from compare.validate import Case, jobs_of, resolved_scene, run_job, same_resolution, SUITES
+from compare.validate import Case, jobs_of, resolved_scene, run_job, same_resolution, same_run_elsewhere, SUITES
 
 
 @pytest.fixture
@@ -81,9 +81,4 @@ def test_a_run_is_found_under_another_key_when_it_resolved_the_same(tiny_suite, 
     # a different step is a different run
     monkeypatch.setattr(case, "sets", case.sets[:-1] + [f"integrator.dt={dt / 2}"])
     (halved,) = jobs_of(tiny_suite, tmp_path)
-    assert same_run_elsewhere_is_none(halved)
-
-
-def same_run_elsewhere_is_none(job):
-    from compare.validate import same_run_elsewhere
-    return same_run_elsewhere(job, resolved_scene(job)) is None
+    assert same_run_elsewhere(halved, resolved_scene(halved)) is None
