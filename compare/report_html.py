@@ -213,8 +213,9 @@ def write_report(report, outdir):
             out.append(f"<p><img src='{esc(Path(p).name)}' alt='{esc(Path(p).stem)}'></p>")
         for e in case.get("figure_errors", []):
             out.append(f"<p class='fail'>figure not drawn: {esc(e)}</p>")
-    out.append("<p>Every number: <a href='report.json'>report.json</a>. Speeds here are whole-run wall-clock rates "
-               "(start-up and output included, runs sharing the machine); the interleaved benchmark is "
+    out.append("<p>Every number: <a href='report.json'>report.json</a>. Speeds here are whole-run rates per CPU second "
+               "(start-up and output included; runs cached before CPU time was recorded use wall-clock time, "
+               "marked in report.json as timed_by); the interleaved benchmark is "
                "<code>compare bench</code>.</p>")
     out.append("<script>window.addEventListener('load',function(){var n=0;"
                "document.querySelectorAll('img').forEach(function(i){if(i.complete&&i.naturalWidth>0)n++;});"

@@ -19,6 +19,8 @@ import json
 import math
 import os
 import subprocess
+import tempfile
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -44,7 +46,9 @@ DRUM_ROWS = {
     "yade": ("yade", []),
 }
 BOX_ROWS = {
-    "native-paper": ("native", []),  # the paper's law and its Gear predictor-corrector
+    # the paper's law and its Gear predictor-corrector at the paper's step, pinned
+    # so that a suite running the other rows at another step keeps it
+    "native-paper": ("native", ["integrator.kind=\"gear\"", "integrator.dt=5e-5"]),
     "native-verlet": ("native", ["integrator.kind=\"verlet\""]),
     "lammps": ("lammps", []),  # gran/hooke is the paper's law exactly; velocity Verlet
     "native-viscel": ("native", ["contact.law=\"viscel\"", "integrator.kind=\"verlet\""]),
@@ -102,8 +106,13 @@ SUITES = {
              ["run.rotations=40", "run.snapshot_every=2", "run.profile_every=0.25"],
              [1, 2, 3], list(DRUM_ROWS)),
         # Six packings per frequency where a run costs a minute or two; YADE's
-        # box runs take about nine minutes each, so YADE runs packings 1-3.
-        Case("box", "box", "scenes/box/f3.0_big.toml", ["run.duration=60"], [1, 2, 3, 4, 5, 6], list(BOX_ROWS),
+        # box runs take about four and a half minutes each, so YADE runs packings 1-3.
+        # Every row but native-paper runs at dt = 2e-4, inside every observable's
+        # tolerance in the step sweep (docs/speed_accuracy.md); native-paper keeps
+        # the paper's Gear at 5e-5, so the pair native-paper - native-verlet
+        # measures the step's effect on the rise fraction itself.
+        Case("box", "box", "scenes/box/f3.0_big.toml", ["run.duration=60", "integrator.dt=2e-4"],
+             [1, 2, 3, 4, 5, 6], list(BOX_ROWS),
              frequencies=[2.6, 2.8, 3.0, 3.2], engine_seeds={"yade": [1, 2, 3]}),
     ],
 }
@@ -235,13 +244,10 @@ def run_job(job, log=print):
         tmp.unlink()
     cmd = job.command(tmp)
     t0 = time.monotonic()
-    try:
-        r = subprocess.run(cmd, capture_output=True, text=True, timeout=job.case.timeout, cwd=ROOT)
-        rc, err = r.returncode, (r.stderr or "")[-2000:]
-    except subprocess.TimeoutExpired:
-        rc, err = -1, f"timed out after {job.case.timeout:.0f} s"
+    rc, err, cpu = run_timed(cmd, job.case.timeout)
     wall = time.monotonic() - t0
-    meta = {"label": job.label, "command": cmd, "wall_seconds": wall, "returncode": rc, "resolved_scene": resolved}
+    meta = {"label": job.label, "command": cmd, "wall_seconds": wall, "cpu_seconds": cpu, "returncode": rc,
+            "resolved_scene": resolved}
     if rc != 0:
         lines = [ln for ln in err.strip().splitlines() if ln.strip()]
         meta["error"] = " | ".join(lines[-3:]) if lines else f"exit status {rc}"
@@ -250,6 +256,29 @@ def run_job(job, log=print):
     os.replace(tmp, job.path)
     meta_path.write_text(json.dumps(meta, indent=1))
     return meta | {"cached": False}
+
+
+def run_timed(cmd, timeout):
+    """Runs cmd; returns (exit status, the tail of its stderr, CPU seconds).
+    The CPU seconds are the process's own user+system time and its reaped
+    children's (os.wait4), so a run's speed does not depend on what else the
+    machine ran beside it, as wall-clock time would."""
+    with tempfile.TemporaryFile("w+") as errf:
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=errf, text=True, cwd=ROOT)
+        timed_out = threading.Event()
+        timer = threading.Timer(timeout, lambda: (timed_out.set(), p.kill()))
+        timer.start()
+        try:
+            _, status, ru = os.wait4(p.pid, 0)
+        finally:
+            timer.cancel()
+        p.returncode = os.waitstatus_to_exitcode(status)  # reaped here; tell Popen
+        errf.seek(0)
+        err = errf.read()[-2000:]
+    rc = p.returncode
+    if timed_out.is_set():
+        rc, err = -1, f"timed out after {timeout:.0f} s"
+    return rc, err, ru.ru_utime + ru.ru_stime
 
 
 def run_all(jobs, lanes=2, log=print):
@@ -381,7 +410,10 @@ def analyse(suite, jobs, metas):
                                              "seeds": job.case.seeds, "variants": {}})
         v = c["variants"].setdefault(job.variant, {})
         r = v.setdefault(job.row, {"runs": []})
+        # Speed from CPU time; runs cached before it was recorded fall back to wall-clock time.
+        seconds = meta.get("cpu_seconds") or meta.get("wall_seconds")
         run = {"seed": job.seed, "path": str(job.path), "wall_seconds": meta.get("wall_seconds"),
+               "cpu_seconds": meta.get("cpu_seconds"),
                "ok": meta.get("returncode") == 0, "error": meta.get("error"), "cached": meta.get("cached")}
         if run["ok"]:
             try:
@@ -389,7 +421,8 @@ def analyse(suite, jobs, metas):
                        else box_observables(job.path))
                 steps, n = steps_and_particles(job.path)
                 run.update(obs, particles=n, steps=steps,
-                           particle_steps_per_second=n * steps / meta["wall_seconds"] if meta.get("wall_seconds") else None)
+                           particle_steps_per_second=n * steps / seconds if seconds else None,
+                           timed_by="cpu" if meta.get("cpu_seconds") else "wall")
             except Exception as e:  # an analysis failure is a failure of the run, reported
                 run.update(ok=False, error=f"analysis: {e}")
         r["runs"].append(run)

@@ -2,9 +2,11 @@
 whose scene now resolves differently (a changed engine default) runs again, and
 a run cached before the check existed is adopted as it is."""
 import json
+import sys
 
 import pytest
 
+from compare import validate
 from compare.validate import Case, jobs_of, resolved_scene, run_job, same_resolution, same_run_elsewhere, SUITES
 
 
@@ -82,3 +84,20 @@ def test_a_run_is_found_under_another_key_when_it_resolved_the_same(tiny_suite, 
     monkeypatch.setattr(case, "sets", case.sets[:-1] + [f"integrator.dt={dt / 2}"])
     (halved,) = jobs_of(tiny_suite, tmp_path)
     assert same_run_elsewhere(halved, resolved_scene(halved)) is None
+
+
+def test_run_timed_counts_the_cpu_time_of_the_run_and_its_children():
+    # A shell that runs a busy child: the child's CPU time is the run's, and a
+    # sleeping run costs almost none however long it takes.
+    busy = ["sh", "-c", f"{sys.executable} -c 'import time\nt=time.process_time()\nwhile time.process_time()-t<0.3: pass'"]
+    rc, _, cpu = validate.run_timed(busy, 30)
+    assert rc == 0 and 0.25 < cpu < 2.0
+    rc, _, cpu = validate.run_timed(["sleep", "0.5"], 30)
+    assert rc == 0 and cpu < 0.1
+
+
+def test_run_timed_reports_a_timeout_and_a_failure():
+    rc, err, _ = validate.run_timed(["sleep", "5"], 0.3)
+    assert rc == -1 and "timed out" in err
+    rc, err, _ = validate.run_timed(["sh", "-c", "echo broken >&2; exit 3"], 5)
+    assert rc == 3 and "broken" in err
