@@ -106,7 +106,8 @@ TEST(Checkpoint, DrumLinearCappedResumesBitwise) {
 
 TEST(Checkpoint, BoxGearResumesBitwise) {
   omp_set_num_threads(2);
-  const BoxScene s = box({"particles.count=200", "box.width=24", "run.settle=0.05"});
+  const BoxScene s = box({"particles.count=200", "box.width=24", "run.settle=0.05", "integrator.kind=gear",
+                          "integrator.dt=5e-5"});
   ASSERT_TRUE(s.gear);
   // 0.05 s settling = 1000 steps; checkpoint while shaking
   check_resume<BoxSim>([&] { return make_box(s); }, 1500, 3000, "box_gear.ckpt");

@@ -338,7 +338,8 @@ TEST(FlatBoxWalls, SurfacesAndTop) {
 TEST(FlatBoxWalls, SceneBuildsThemWhereTheParticleWallsAre) {
   const char* src = std::getenv("GRANULAR_SOURCE_DIR");
   const auto path = (std::filesystem::path(src ? src : ".") / "scenes/box/f3.0_big.toml").string();
-  const std::vector<std::string> small = {"particles.count=100", "box.width=20", "box.wall_height=30"};
+  const std::vector<std::string> small = {"particles.count=100", "box.width=20", "box.wall_height=30",
+                                          "integrator.kind=\"gear\""};
   auto sets = small;
   SceneFile fp(path, sets);
   const BoxScene sp = read_box_scene(fp);

@@ -101,3 +101,16 @@ def test_run_timed_reports_a_timeout_and_a_failure():
     assert rc == -1 and "timed out" in err
     rc, err, _ = validate.run_timed(["sh", "-c", "echo broken >&2; exit 3"], 5)
     assert rc == 3 and "broken" in err
+
+
+def test_a_key_the_engine_does_not_read_does_not_make_its_run_stale():
+    # LAMMPS and YADE shake the box with their own integrators: a changed
+    # integrator.kind leaves their runs valid, a changed step does not.
+    old = {"integrator": {"kind": "gear", "dt": 2e-4}, "shaking": {"frequency": 3.0}}
+    new = {"integrator": {"kind": "verlet", "dt": 2e-4}, "shaking": {"frequency": 3.0}}
+    ignore = validate.NOT_READ[("lammps", "box")]
+    assert same_resolution(old, new, ignore)
+    assert not same_resolution(old, new)  # the native engine reads it
+    assert not same_resolution(old, {"integrator": {"kind": "verlet", "dt": 5e-5}, "shaking": {"frequency": 3.0}},
+                               ignore)
+    assert old["integrator"]["kind"] == "gear"  # the stored resolution is left as it was

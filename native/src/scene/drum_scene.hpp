@@ -32,7 +32,7 @@ struct DrumScene {
   double gravity = 5.0;
   // [integrator], [neighbor]
   std::string integrator = "leapfrog";
-  double dt = 0.005, skin = 0.4;
+  double dt = 0.01, skin = 0.4;  // dt: drum_scene.cpp, the default step
   // [run]: lengths in rotations
   double rotations = 1.0, snapshot_every = 10.0, profile_every = 0.5, profile_slice_width = 1.0;
   // [paper]: Table I reference values, reported, not used by the dynamics
