@@ -105,7 +105,9 @@ def table1(run_dir, out_md, fig_dir, notes=None):
              "(`docs/observables.md`). Columns as in the paper's Table I; γ_s in the order bb ss bw sw. "
              "\"rotations ours\" is what was actually run (shortened where the outcome was decided). "
              "Bands: early→final as defined in docs/observables.md. Formation: rotations. "
-             "Segregated: paper (a band count in Table I) / ours (bands formed and present at the end).", "",
+             "Segregated: paper (a band count in Table I) / ours (bands formed and present at the end). "
+             "The runs were made at the paper's step δt = 0.005; the engine's default is 0.01 since 2026-11-22 "
+             "(docs/speed_accuracy.md, \"Defaults\"), so reproducing them takes `--set integrator.dt=0.005`.", "",
              "| run | L | D | ρ | b | Ω | ends | init | γ_s | N paper | N ours | rotations paper | rotations ours "
              "| bands paper | bands ours | formation | segregated paper / ours | agree |",
              "|" + "---|" * 18]
