@@ -20,6 +20,7 @@
 #include <array>
 #include <cmath>
 
+#include "contact/pair_batch.hpp"
 #include "core/space.hpp"
 
 namespace granular {
@@ -76,6 +77,45 @@ struct LinearLaw {
     const V fs = friction(vt, c, damp_n, fn);
     const A m = moment(n, fs);
     return {fn * n + fs, -(ri - 0.5 * delta) * m, -(rj - 0.5 * delta) * m};
+  }
+
+  // pair_force over a batch of contacts (contact/pair_batch.hpp), the same
+  // equations in the same order, lane by lane.
+  void pair_force_batch(PairBatch<Dim>& b) const {
+    constexpr int kA = PairBatch<Dim>::kAng;
+    const int nb = b.n;
+#pragma omp simd
+    for (int k = 0; k < nb; ++k) {
+      const Coeff& c = pair[b.ci[k] * kSpecies + b.cj[k]];
+      const double r = std::sqrt(b.r2[k]);
+      double n[Dim], vt[Dim], fs[Dim], wr[kA], wxn[Dim], m[kA];
+      for (int a = 0; a < Dim; ++a) n[a] = b.dr[a][k] / r;
+      const double ri = 0.5 * b.di[k], rj = 0.5 * b.dj[k];
+      const double delta = ri + rj - r;
+      const double meff = 1.0 / (b.inv_mi[k] + b.inv_mj[k]);
+      double vn = 0.0;
+      for (int a = 0; a < Dim; ++a) vn += b.v[a][k] * n[a];
+      const double damp_n = c.gamma_n * meff;
+      const double fn = c.kn * delta - damp_n * vn;
+      for (int a = 0; a < kA; ++a) wr[a] = ri * b.wi[a][k] + rj * b.wj[a][k];
+      spin_cross_c(wr, n, wxn);
+      double vt2 = 0.0;
+      for (int a = 0; a < Dim; ++a) {
+        vt[a] = b.v[a][k] - vn * n[a] - wxn[a];
+        vt2 += vt[a] * vt[a];
+      }
+      // friction(): F_t = -min(x_t g_n m_eff |v_t|, mu |F_n|) v_t/|v_t|, zero at v_t = 0
+      const double vrel = std::sqrt(vt2);
+      const double cap = std::min(c.xgamma_t * damp_n * vrel, c.mu * std::abs(fn));
+      const double scale = vrel == 0.0 ? 0.0 : -cap / (vrel == 0.0 ? 1.0 : vrel);
+      for (int a = 0; a < Dim; ++a) fs[a] = scale * vt[a];
+      moment_c(n, fs, m);
+      for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
+      for (int a = 0; a < kA; ++a) {
+        b.ti[a][k] = -(ri - 0.5 * delta) * m[a];
+        b.tj[a][k] = -(rj - 0.5 * delta) * m[a];
+      }
+    }
   }
 
   struct WallResult {

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "contact/pair_batch.hpp"
 #include "core/box.hpp"
 #include "core/particles.hpp"
 #include "core/threads.hpp"
@@ -236,6 +237,10 @@ class Simulation {
       fbuf_.assign(nt - 1, std::vector<V>(n));
       tbuf_.assign(nt - 1, std::vector<A>(n));
     }
+    if constexpr (HasPairBatch<Law, Dim>::value) {
+#pragma omp single
+      if (static_cast<int>(batch_.size()) != nt) batch_.resize(nt);
+    }
     constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
     V* F = t == 0 ? p.f.data() : fbuf_[t - 1].data();
@@ -251,6 +256,32 @@ class Simulation {
             T[i].setZero();
           }
     }
+    if constexpr (HasPairBatch<Law, Dim>::value)
+      pairs_batched(t, lo, hi, F, T);
+    else
+      pairs_scalar(t, lo, hi, F, T);
+#pragma omp barrier
+    // p.f holds thread 0's sum; add the others' in thread order.
+    for (std::size_t i = lo; i < hi;) {
+      const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
+      for (int u = 1; u < nt; ++u)
+        if (nl_.touched(u, c))
+          for (std::size_t q = i; q < e; ++q) {
+            p.f[q] += fbuf_[u - 1][q];
+            p.tq[q] += tbuf_[u - 1][q];
+          }
+      i = e;
+    }
+#pragma omp master
+    ts.pairs_done = PhaseTimers::Clock::now();
+    // Walls act on the thread's own block only: no barrier needed.
+    std::apply([&](const auto&... w) { (w.apply(p, law, lo, hi, t_pos), ...); }, walls);
+#pragma omp master
+    ts.walls_done = PhaseTimers::Clock::now();
+  }
+
+  // The pair loop, one contact at a time: i's own sums stay in registers.
+  void pairs_scalar(int t, std::size_t lo, std::size_t hi, V* F, A* T) {
     const std::uint32_t* col = nl_.col(t);
     for (std::size_t i = lo; i < hi; ++i) {
       const V xi = p.x[i], vi = p.v[i];
@@ -275,24 +306,80 @@ class Simulation {
       F[i] += fi;
       T[i] += ti;
     }
-#pragma omp barrier
-    // p.f holds thread 0's sum; add the others' in thread order.
-    for (std::size_t i = lo; i < hi;) {
-      const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
-      for (int u = 1; u < nt; ++u)
-        if (nl_.touched(u, c))
-          for (std::size_t q = i; q < e; ++q) {
-            p.f[q] += fbuf_[u - 1][q];
-            p.tq[q] += tbuf_[u - 1][q];
+  }
+
+  // The pair loop for a law with a batch kernel (contact/pair_batch.hpp): the
+  // contacts in range are gathered into the thread's batch, evaluated
+  // together, and added to both particles in the order they were found.
+  void pairs_batched(int t, std::size_t lo, std::size_t hi, V* F, A* T) {
+    PairBatch<Dim>& b = batch_[t];
+    constexpr int kA = PairBatch<Dim>::kAng;
+    const auto flush = [&] {
+      law.pair_force_batch(b);
+      for (int q = 0; q < b.n; ++q) {
+        const std::uint32_t i = b.i[q], j = b.j[q];
+        for (int a = 0; a < Dim; ++a) {
+          F[i][a] += b.f[a][q];
+          F[j][a] -= b.f[a][q];
+        }
+        for (int a = 0; a < kA; ++a) {
+          T[i][a] += b.ti[a][q];
+          T[j][a] += b.tj[a][q];
+        }
+      }
+      b.n = 0;
+    };
+    b.n = 0;
+    constexpr std::uint32_t kSize = PairBatch<Dim>::kSize;
+    const std::uint32_t* col = nl_.col(t);
+    for (std::size_t i = lo; i < hi; ++i) {
+      const V xi = p.x[i], vi = p.v[i];
+      const A wi = p.w[i];
+      const double di = p.d[i], inv_mi = p.inv_m[i];
+      const int ci = p.species[i];
+      // The row in pieces that fit the batch.
+      for (std::uint32_t k0 = nl_.begin(i), ke = nl_.end(i); k0 < ke;) {
+        const std::uint32_t k1 = std::min(ke, k0 + kSize);
+        if (b.n + (k1 - k0) > kSize) flush();
+        const int q0 = b.n;
+        // The range test, without a branch: about half the listed pairs are
+        // in contact, so a branch on it would mispredict half the time. Every
+        // pair is written to the next free slot, which only a contact keeps.
+        int q = q0;
+        for (std::uint32_t k = k0; k < k1; ++k) {
+          const std::uint32_t j = col[k];
+          const V dr = box.min_image(xi - p.x[j]);
+          const double r2 = dr.squaredNorm();
+          const double dj = p.d[j];
+          const double rc = Law::range(di, dj);
+          b.j[q] = j;
+          for (int a = 0; a < Dim; ++a) b.dr[a][q] = dr[a];
+          b.r2[q] = r2;
+          b.dj[q] = dj;
+          q += r2 < rc * rc;
+        }
+        b.n = q;
+        // The rest of each contact's inputs.
+        for (int c = q0; c < q; ++c) {
+          const std::uint32_t j = b.j[c];
+          const V vij = vi - p.v[j];
+          const A& wj = p.w[j];
+          b.i[c] = static_cast<std::uint32_t>(i);
+          b.ci[c] = ci;
+          b.cj[c] = p.species[j];
+          for (int a = 0; a < Dim; ++a) b.v[a][c] = vij[a];
+          for (int a = 0; a < kA; ++a) {
+            b.wi[a][c] = wi[a];
+            b.wj[a][c] = wj[a];
           }
-      i = e;
+          b.di[c] = di;
+          b.inv_mi[c] = inv_mi;
+          b.inv_mj[c] = p.inv_m[j];
+        }
+        k0 = k1;
+      }
     }
-#pragma omp master
-    ts.pairs_done = PhaseTimers::Clock::now();
-    // Walls act on the thread's own block only: no barrier needed.
-    std::apply([&](const auto&... w) { (w.apply(p, law, lo, hi, t_pos), ...); }, walls);
-#pragma omp master
-    ts.walls_done = PhaseTimers::Clock::now();
+    if (b.n > 0) flush();
   }
 
   static typename Integrator::DriftStats combine(const std::vector<typename Integrator::DriftStats>& per) {
@@ -342,6 +429,7 @@ class Simulation {
   double d_min_ = std::numeric_limits<double>::infinity();  // smallest diameter (the step-move limit)
   std::vector<std::vector<V>> fbuf_;
   std::vector<std::vector<A>> tbuf_;
+  std::vector<PairBatch<Dim>> batch_;  // per thread, for laws with a batch kernel
   std::vector<typename Integrator::DriftStats> stats_;
 };
 

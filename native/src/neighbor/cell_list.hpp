@@ -43,6 +43,7 @@ class CellList {
       for (int q = 1; q < Dim; ++q) stride_[order_[q]] = stride_[order_[q - 1]] * n_[order_[q - 1]];
       n_cells_ = stride_[order_[Dim - 1]] * n_[order_[Dim - 1]];
       periodic_ = box.periodic;
+      len_ = len;
       cell_tmp_.resize(n);
       cell_of_.resize(n);
       sorted_.resize(n);
@@ -87,7 +88,11 @@ class CellList {
   // lexicographically positive, with periodic wrap. Visiting (c, c') for c' in
   // half_stencil(c) meets every pair of adjacent cells exactly once (periodic
   // axes have >= 3 cells or are collapsed to 1). Returns the count; out[0] = c.
-  int half_stencil(int c, std::array<int, 14>& out) const {
+  // shift[s]: what the wrap moved cell s by, so that x_j + shift[s] is the image
+  // of a particle of cell s next to cell c, and (x_i - x_j) - shift[s] its
+  // minimum-image separation (bitwise what Box::min_image gives, without its
+  // three roundings), unless collapsed_periodic() (then use min_image).
+  int half_stencil(int c, std::array<int, 14>& out, std::array<V, 14>& shift) const {
     std::array<int, Dim> ci{};
     for (int k = 0; k < Dim; ++k) ci[k] = (c / stride_[k]) % n_[k];
     int count = 0;
@@ -96,6 +101,7 @@ class CellList {
       int t = s;
       bool ok = true;
       int idx = 0;
+      V sh = V::Zero();
       for (int k = 0; k < Dim; ++k) {
         const int off = t % 3 - 1;
         t /= 3;
@@ -103,13 +109,28 @@ class CellList {
         int q = ci[k] + off;
         if (q < 0 || q >= n_[k]) {
           if (!periodic_[k]) { ok = false; break; }
+          sh[k] = q < 0 ? -len_[k] : len_[k];
           q = (q + n_[k]) % n_[k];
         }
         idx += q * stride_[k];
       }
-      if (ok) out[count++] = idx;
+      if (ok) {
+        shift[count] = sh;
+        out[count++] = idx;
+      }
     }
     return count;
+  }
+  int half_stencil(int c, std::array<int, 14>& out) const {
+    std::array<V, 14> shift;
+    return half_stencil(c, out, shift);
+  }
+  // A periodic axis too short for three cells: pairs may meet across it
+  // within one cell, and only Box::min_image finds the nearest image.
+  bool collapsed_periodic() const {
+    for (int k = 0; k < Dim; ++k)
+      if (periodic_[k] && n_[k] == 1) return true;
+    return false;
   }
 
  private:
@@ -130,6 +151,7 @@ class CellList {
   std::array<int, Dim> order_{};
   std::array<bool, Dim> periodic_{};
   V width_ = V::Zero();
+  V len_ = V::Zero();
   int n_cells_ = 0;
   std::vector<int> cell_of_, cell_tmp_;
   std::vector<std::vector<std::uint32_t>> offset_;

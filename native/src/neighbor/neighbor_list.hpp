@@ -12,6 +12,7 @@
 #include "core/particles.hpp"
 #include "core/threads.hpp"
 #include "neighbor/cell_list.hpp"
+#include "neighbor/range_scan.hpp"
 
 namespace granular {
 
@@ -38,6 +39,9 @@ class NeighborList {
     row_begin_.resize(n);
     row_end_.resize(n);
     x_ref_.resize(n);
+    static_assert(sizeof(V) == Dim * sizeof(double), "range_scan reads the positions as packed doubles");
+    double d_max = 0.0;
+    for (double dj : p.d) d_max = std::max(d_max, dj);
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
 #pragma omp parallel num_threads(nt_)
     {
@@ -48,32 +52,79 @@ class NeighborList {
 #pragma omp barrier
       auto& out = col_[t];
       auto& mark = touched_[t];
-      out.clear();
       mark.assign(n_chunks, 0);
+      std::size_t n_out = 0;
       std::array<int, 14> st{};
+      std::array<V, 14> shift;
+      // The stencil's cells merged into runs contiguous in the store: cells
+      // next to each other along the axis of stride 1 hold consecutive
+      // particles, so the 14 cells of a 3D half stencil make 5 runs.
+      std::array<std::uint32_t, 14> run_b{}, run_e{};
+      std::array<V, 14> run_shift;
+      int n_runs = 0, cell = -1;
+      const bool collapsed = cells_.collapsed_periodic();
+      const std::int32_t* species = p.species.data();
+      const double* d = p.d.data();
+      const V* x = p.x.data();
+      const double* xflat = reinterpret_cast<const double*>(x);
       for (std::size_t i = lo; i < hi; ++i) {
-        row_begin_[i] = static_cast<std::uint32_t>(out.size());
+        row_begin_[i] = static_cast<std::uint32_t>(n_out);
         mark[i / kChunk] = 1;
-        const int ns = cells_.half_stencil(cells_.cell_of(i), st);
-        const V xi = p.x[i];
-        const double di = p.d[i];
-        const bool excluded_i = p.species[i] == exclude_species;
-        for (int s = 0; s < ns; ++s) {
-          // Own cell: only j > i; forward cells: all of them.
-          const std::uint32_t b = s == 0 ? static_cast<std::uint32_t>(i + 1) : cells_.begin(st[s]);
-          const std::uint32_t e = cells_.end(st[s]);
-          for (std::uint32_t j = b; j < e; ++j) {
-            if (excluded_i && p.species[j] == exclude_species) continue;
-            const double rc = range(di, p.d[j]) + skin;
-            if (box.min_image(xi - p.x[j]).squaredNorm() < rc * rc) {
-              out.push_back(j);
-              mark[j / kChunk] = 1;
+        // The store is in cell order: the stencil changes only with the cell.
+        if (cells_.cell_of(i) != cell) {
+          cell = cells_.cell_of(i);
+          const int ns = cells_.half_stencil(cell, st, shift);
+          n_runs = 0;
+          for (int s = 0; s < ns; ++s) {
+            if (n_runs > 0 && st[s] == st[s - 1] + 1 && shift[s] == run_shift[n_runs - 1]) {
+              run_e[n_runs - 1] = cells_.end(st[s]);
+              continue;
             }
+            run_b[n_runs] = cells_.begin(st[s]);
+            run_e[n_runs] = cells_.end(st[s]);
+            run_shift[n_runs++] = shift[s];
           }
         }
-        row_end_[i] = static_cast<std::uint32_t>(out.size());
-        x_ref_[i] = p.x[i];
+        const V xi = x[i];
+        const double di = d[i];
+        const bool excluded_i = species[i] == exclude_species;
+        // The filter's cutoff: the largest i can have (range grows with d_j).
+        const double cut = range(di, d_max) + skin;
+        const double cut2 = cut * cut * (1.0 + 1e-12);
+        for (int s = 0; s < n_runs; ++s) {
+          // Own cell (the first run): only j > i; other runs: all of them.
+          const std::uint32_t b = s == 0 ? static_cast<std::uint32_t>(i + 1) : run_b[s];
+          const std::uint32_t e = run_e[s];
+          if (b >= e) continue;
+          if (out.size() < n_out + (e - b) + kScanSlack)
+            out.resize(std::max(2 * out.size(), n_out + (e - b) + kScanSlack));
+          std::uint32_t* const o = out.data() + n_out;
+          const V sh = run_shift[s];
+          std::uint32_t* o_end;
+          if (collapsed) {
+            o_end = o;
+            for (std::uint32_t j = b; j < e; ++j) *o_end++ = j;
+          } else {
+            const V xs = xi - sh;
+            o_end = range_scan<Dim>(xflat, b, e, xs.data(), cut2, o);
+          }
+          // The exact test on the survivors, compacted in place.
+          std::uint32_t* w = o;
+          for (const std::uint32_t* q = o; q < o_end; ++q) {
+            const std::uint32_t j = *q;
+            const double rc = range(di, d[j]) + skin;
+            const V dr = collapsed ? box.min_image(xi - x[j]) : V((xi - x[j]) - sh);
+            const bool hit = (dr.squaredNorm() < rc * rc) & !(excluded_i & (species[j] == exclude_species));
+            *w = j;
+            w += hit;
+            mark[j / kChunk] |= static_cast<std::uint8_t>(hit);
+          }
+          n_out += static_cast<std::size_t>(w - o);
+        }
+        row_end_[i] = static_cast<std::uint32_t>(n_out);
+        x_ref_[i] = x[i];
       }
+      out.resize(n_out);
     }
     ++builds_;
   }
