@@ -18,6 +18,7 @@
 #include <array>
 #include <cmath>
 
+#include "contact/pair_batch.hpp"
 #include "core/space.hpp"
 
 namespace granular {
@@ -80,6 +81,45 @@ struct RapaportLaw {
     const V fs = sliding(vs, pair[ci * kSpecies + cj], fn);  // Eq. (4)
     const A m = moment(n, fs);
     return {fn * n + fs, -0.5 * di * m, -0.5 * dj * m};
+  }
+
+  // pair_force over a batch of contacts (contact/pair_batch.hpp): Eqs. (1)-(4)
+  // in the same order, lane by lane.
+  void pair_force_batch(PairBatch<Dim>& b) const {
+    constexpr int kA = PairBatch<Dim>::kAng;
+    const int nb = b.n;
+#pragma omp simd
+    for (int k = 0; k < nb; ++k) {
+      const Friction& fr = pair[b.ci[k] * kSpecies + b.cj[k]];
+      const double inv_r = 1.0 / std::sqrt(b.r2[k]);
+      const double di = b.di[k], dj = b.dj[k];
+      double n[Dim], dr[Dim], vs[Dim], fs[Dim], wbar[kA], wxr[Dim], m[kA];
+      for (int a = 0; a < Dim; ++a) {
+        dr[a] = b.dr[a][k];
+        n[a] = dr[a] * inv_r;
+      }
+      double vn = 0.0;
+      for (int a = 0; a < Dim; ++a) vn += n[a] * b.v[a][k];
+      const double fn = normal(inv_r, 0.5 * (di + dj), vn, gamma_n);  // Eqs. (1), (2)
+      for (int a = 0; a < kA; ++a) wbar[a] = (di * b.wi[a][k] + dj * b.wj[a][k]) / (di + dj);
+      spin_cross_c(wbar, dr, wxr);
+      double vs2 = 0.0;
+      for (int a = 0; a < Dim; ++a) {
+        vs[a] = b.v[a][k] - vn * n[a] - wxr[a];  // Eq. (3)
+        vs2 += vs[a] * vs[a];
+      }
+      // sliding(), Eq. (4): f_s = -min(gamma_s |v_s|, mu |f_n|) v^_s, zero at v_s = 0
+      const double vabs = std::sqrt(vs2);
+      const double mag = std::min(fr.gamma_s * vabs, fr.mu * std::abs(fn));
+      const double scale = vs2 == 0.0 ? 0.0 : -mag / (vs2 == 0.0 ? 1.0 : vabs);
+      for (int a = 0; a < Dim; ++a) fs[a] = scale * vs[a];
+      moment_c(n, fs, m);
+      for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
+      for (int a = 0; a < kA; ++a) {
+        b.ti[a][k] = -0.5 * di * m[a];
+        b.tj[a][k] = -0.5 * dj * m[a];
+      }
+    }
   }
 
   struct WallResult {

@@ -23,10 +23,14 @@ struct Box {
     return dr;
   }
 
-  void wrap(V& x) const {
-    for (int k = 0; k < Dim; ++k)
-      if (periodic[k]) x[k] -= len_[k] * std::floor((x[k] - lo[k]) * inv_len_[k]);
+  // Back into [lo, hi) along periodic axes. Branch-free and whole-vector (the
+  // factor is floor(0) = 0 on the others), so that the caller's copy stays in
+  // registers rather than being written one component at a time.
+  V wrapped(const V& x) const {
+    const V cells = ((x - lo).cwiseProduct(inv_len_)).array().floor().matrix();
+    return x - len_.cwiseProduct(cells);
   }
+  void wrap(V& x) const { x = wrapped(x); }
 
   // Call after setting lo, hi, periodic.
   void finalize() {

@@ -65,8 +65,9 @@ struct Gear5 {
       if (place_if_wall(motion, p, i, t_next, box, x_ref[i], st)) continue;
       const V r1 = dt * p.v[i];
       const V step = r1 + r2[i] + r3[i] + r4[i] + r5[i];
-      p.x[i] += step;
-      box.wrap(p.x[i]);
+      V x = p.x[i] + step;  // a copy: see leapfrog.hpp
+      box.wrap(x);
+      p.x[i] = x;
       p.v[i] = (r1 + 2.0 * r2[i] + 3.0 * r3[i] + 4.0 * r4[i] + 5.0 * r5[i]) / dt;
       r2[i] += 3.0 * r3[i] + 6.0 * r4[i] + 10.0 * r5[i];
       r3[i] += 4.0 * r4[i] + 10.0 * r5[i];
@@ -77,7 +78,7 @@ struct Gear5 {
       q2[i] += 3.0 * q3[i] + 6.0 * q4[i] + 10.0 * q5[i];
       q3[i] += 4.0 * q4[i] + 10.0 * q5[i];
       q4[i] += 5.0 * q5[i];
-      st.add(box, step.squaredNorm(), p.x[i], x_ref[i]);
+      st.add(box, step.squaredNorm(), x, x_ref[i]);
     }
     return st;
   }

@@ -34,12 +34,17 @@ struct Leapfrog {
     DriftStats st;
     for (std::size_t i = lo; i < hi; ++i) {
       if (place_if_wall(motion, p, i, t_next, box, x_ref[i], st)) continue;
-      p.v[i] += h * (p.f[i] * p.inv_m[i] + gravity);
+      // Work on copies and store each column once: reading back a position
+      // just stored in pieces (the periodic wrap writes one component) stalls
+      // the load on the pending stores.
+      const V v = p.v[i] + h * (p.f[i] * p.inv_m[i] + gravity);
+      p.v[i] = v;
       p.w[i] += (h * p.inv_i[i]) * p.tq[i];
-      const V step = dt * p.v[i];
-      p.x[i] += step;
-      box.wrap(p.x[i]);
-      st.add(box, step.squaredNorm(), p.x[i], x_ref[i]);
+      const V step = dt * v;
+      V x = p.x[i] + step;
+      box.wrap(x);
+      p.x[i] = x;
+      st.add(box, step.squaredNorm(), x, x_ref[i]);
     }
     return st;
   }
