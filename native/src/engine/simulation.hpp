@@ -69,6 +69,7 @@ class Simulation {
   void step() {
     const int nt = omp_get_max_threads();
     if (nt != nl_.threads()) rebuild();  // the thread count changed since the last build
+    prepare_buffers(nt);
     stats_.assign(nt, typename Integrator::DriftStats{});
     const auto& xref = nl_.reference_positions();
     typename Integrator::DriftStats st;
@@ -138,6 +139,7 @@ class Simulation {
   void compute_forces() {
     const int nt = omp_get_max_threads();
     if (nt != nl_.threads()) rebuild();
+    prepare_buffers(nt);
     Stamps ts;
 #pragma omp parallel num_threads(nt)
     {
@@ -211,6 +213,18 @@ class Simulation {
     max_range_ = Law::range(dmax, dmax);
   }
 
+  // The per-thread force buffers and contact batches, sized before a parallel
+  // region opens (inside it, sizing them would cost a barrier every step).
+  void prepare_buffers(int nt) {
+    const std::size_t n = p.size();
+    if (static_cast<int>(fbuf_.size()) != nt - 1 || (nt > 1 && fbuf_[0].size() != n)) {
+      fbuf_.assign(nt - 1, std::vector<V>(n));
+      tbuf_.assign(nt - 1, std::vector<A>(n));
+    }
+    if constexpr (HasPairBatch<Law, Dim>::value)
+      if (static_cast<int>(batch_.size()) != nt) batch_.resize(nt);
+  }
+
   struct Stamps {
     PhaseTimers::Clock::time_point start = PhaseTimers::Clock::now(), first = start, pairs_done = start,
                                    walls_done = start, end = start;
@@ -232,15 +246,6 @@ class Simulation {
   // t_pos: the time of the positions (moving walls are placed at it).
   void forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts) {
     const std::size_t n = p.size();
-#pragma omp single
-    if (static_cast<int>(fbuf_.size()) != nt - 1 || (nt > 1 && fbuf_[0].size() != n)) {
-      fbuf_.assign(nt - 1, std::vector<V>(n));
-      tbuf_.assign(nt - 1, std::vector<A>(n));
-    }
-    if constexpr (HasPairBatch<Law, Dim>::value) {
-#pragma omp single
-      if (static_cast<int>(batch_.size()) != nt) batch_.resize(nt);
-    }
     constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
     V* F = t == 0 ? p.f.data() : fbuf_[t - 1].data();
