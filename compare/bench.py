@@ -162,8 +162,9 @@ SKINS = {"drum": (0.1, 0.2, 0.4, 0.6, 0.8, 1.2), "box": (0.1, 0.25, 0.5, 1.0, 2.
 def skin_cases() -> list[Case]:
     cases = [Case(f"skin-drum-native-rapaport-{s:g}", "scenes/drum/A.toml", "native",
                   f"Rapaport law, leapfrog, skin {s:g}", 1, [f"neighbor.skin={s!r}"]) for s in SKINS["drum"]]
-    cases += [Case(f"skin-box-native-gear-{s:g}", "scenes/box/f3.0_big.toml", "native",
-                   f"Poeschel-Herrmann law, Gear, skin {s:g} cm", 1, [f"neighbor.skin={s!r}"]) for s in SKINS["box"]]
+    cases += [Case(f"skin-box-native-verlet-{s:g}", "scenes/box/f3.0_big.toml", "native",
+                   f"Poeschel-Herrmann law, velocity Verlet (the default), skin {s:g} cm", 1,
+                   [f"neighbor.skin={s!r}"]) for s in SKINS["box"]]
     return cases
 
 
