@@ -121,10 +121,6 @@ class CellList {
     }
     return count;
   }
-  int half_stencil(int c, std::array<int, 14>& out) const {
-    std::array<V, 14> shift;
-    return half_stencil(c, out, shift);
-  }
   // A periodic axis too short for three cells: pairs may meet across it
   // within one cell, and only Box::min_image finds the nearest image.
   bool collapsed_periodic() const {
