@@ -1,7 +1,9 @@
 #include "io/h5_output.hpp"
 
-#include <iostream>
+#include <algorithm>
+#include <filesystem>
 #include <stdexcept>
+#include <system_error>
 
 namespace granular {
 
@@ -17,60 +19,78 @@ H5Output::H5Output(const std::string& path, int dim, std::int64_t n, bool with_f
   // The HDF5 1.10 format, which single-writer/multiple-reader mode needs (start_swmr()).
   hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
   H5Pset_libver_bounds(fapl, H5F_LIBVER_LATEST, H5F_LIBVER_LATEST);
+  std::string create_at = path;
   if (resuming_) {
+    // The file to resume may have been left by a writer that was killed: it
+    // reads back every row flushed before the kill, but HDF5 cannot safely
+    // write into it again (its record of allocated space may lag what the dead
+    // writer allocated, and a reopened writer could hand the same bytes out
+    // twice). So it is only read: the rows up to the checkpoint are copied
+    // into a new file beside it (make()), which replaces it in one rename
+    // once every dataset is copied (commit_resume()). Until then the output on
+    // disk is untouched, whatever happens to this run.
     resume_rows_ = *resume;
-    // A writer that was killed leaves the file marked "open for writing"; clear
-    // the mark as the h5clear tool does (its file-access property).
-    hbool_t clear = true;
-    H5Pset(fapl, "clear_status_flags", &clear);
-    file_ = H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl);
-    H5Pclose(fapl);
-    if (file_ < 0) throw std::runtime_error(path + ": cannot open the output file to resume it (missing or damaged)");
-  } else {
-    file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
-    H5Pclose(fapl);
-    if (file_ < 0) throw std::runtime_error(path + ": cannot create the output file");
+    old_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY | H5F_ACC_SWMR_READ, H5P_DEFAULT);
+    if (old_ < 0) old_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);  // a file in the pre-1.10 format
+    if (old_ < 0) {
+      H5Pclose(fapl);
+      throw std::runtime_error(path + ": cannot open the output file to resume it (missing or damaged)");
+    }
+    create_at = resume_path();
   }
-  frames_ = group("frames");
-  const hsize_t un = static_cast<hsize_t>(n), ud = static_cast<hsize_t>(dim);
-  const hsize_t ua = dim == 3 ? 3 : 1;
-  f_time_ = make(frames_, "frames", "time", H5T_NATIVE_DOUBLE, {});
-  f_step_ = make(frames_, "frames", "step", H5T_NATIVE_INT64, {});
-  f_id_ = make(frames_, "frames", "id", H5T_NATIVE_INT64, {un});
-  f_species_ = make(frames_, "frames", "species", H5T_NATIVE_INT32, {un});
-  f_diam_ = make(frames_, "frames", "diameter", H5T_NATIVE_DOUBLE, {un});
-  f_pos_ = make(frames_, "frames", "position", H5T_NATIVE_DOUBLE, {un, ud});
-  f_vel_ = make(frames_, "frames", "velocity", H5T_NATIVE_DOUBLE, {un, ud});
-  f_ang_ = make(frames_, "frames", "angular_velocity", H5T_NATIVE_DOUBLE, {un, ua});
-  if (with_force) f_force_ = make(frames_, "frames", "force", H5T_NATIVE_DOUBLE, {un, ud});
-  attr("schema", std::string("granular-frames"));
-  attr("schema_version", std::int64_t{1});
-  attr("dim", std::int64_t{dim});
+  file_ = H5Fcreate(create_at.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+  H5Pclose(fapl);
+  if (file_ < 0) {
+    if (old_ >= 0) H5Fclose(old_);
+    throw std::runtime_error(create_at + ": cannot create the output file");
+  }
+  try {
+    frames_ = group("frames");
+    const hsize_t un = static_cast<hsize_t>(n), ud = static_cast<hsize_t>(dim);
+    const hsize_t ua = dim == 3 ? 3 : 1;
+    f_time_ = make(frames_, "frames", "time", H5T_NATIVE_DOUBLE, {});
+    f_step_ = make(frames_, "frames", "step", H5T_NATIVE_INT64, {});
+    f_id_ = make(frames_, "frames", "id", H5T_NATIVE_INT64, {un});
+    f_species_ = make(frames_, "frames", "species", H5T_NATIVE_INT32, {un});
+    f_diam_ = make(frames_, "frames", "diameter", H5T_NATIVE_DOUBLE, {un});
+    f_pos_ = make(frames_, "frames", "position", H5T_NATIVE_DOUBLE, {un, ud});
+    f_vel_ = make(frames_, "frames", "velocity", H5T_NATIVE_DOUBLE, {un, ud});
+    f_ang_ = make(frames_, "frames", "angular_velocity", H5T_NATIVE_DOUBLE, {un, ua});
+    if (with_force) f_force_ = make(frames_, "frames", "force", H5T_NATIVE_DOUBLE, {un, ud});
+    attr("schema", std::string("granular-frames"));
+    attr("schema_version", std::int64_t{1});
+    attr("dim", std::int64_t{dim});
+  } catch (...) {
+    close_all();  // no destructor runs for a constructor that throws
+    throw;
+  }
 }
 
 void H5Output::start_swmr() {
   if (swmr_) return;
-  // A file resumed from an earlier version of this program may predate the
-  // 1.10 format (superblock version < 3), which cannot be switched: it goes on
-  // in the ordinary mode, with the risk stated.
-  H5F_info2_t info;
-  check(H5Fget_info2(file_, &info), "reading the file's format version", path_);
-  if (info.super.version < 3) {
-    std::cerr << "note: " << path_ << " was created in an older HDF5 format that single-writer/multiple-reader "
-              << "mode cannot use; it is continued without it (a run killed with SIGKILL may leave it "
-              << "unreadable; checkpoints are unaffected)\n";
-    return;
-  }
+  if (resuming_) commit_resume();
   check(H5Fstart_swmr_write(file_), "switching to single-writer/multiple-reader mode", path_);
   swmr_ = true;
 }
 
+void H5Output::commit_resume() {
+  for (const auto& [name, rows] : resume_rows_)
+    if (!copied_.count(name))
+      throw std::runtime_error(path_ + ": the checkpoint records dataset " + name +
+                               ", which this run does not write; cannot resume into this file");
+  check(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flushing the resumed copy", path_);
+  H5Fclose(old_);
+  old_ = -1;
+  std::error_code ec;
+  std::filesystem::rename(resume_path(), path_, ec);  // the open handle follows the file
+  if (ec) throw std::runtime_error(resume_path() + ": cannot replace " + path_ + " with it: " + ec.message());
+  resuming_ = false;
+}
+
 hid_t H5Output::group(const std::string& name) {
   if (swmr_) throw std::logic_error(path_ + ": group " + name + " declared after start_swmr()");
-  hid_t g = resuming_ && H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0
-                ? H5Gopen2(file_, name.c_str(), H5P_DEFAULT)
-                : H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  if (g < 0) throw std::runtime_error(path_ + ": cannot create or open group " + name);
+  hid_t g = H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) throw std::runtime_error(path_ + ": cannot create group " + name);
   return g;
 }
 
@@ -90,7 +110,9 @@ RowCounts H5Output::rows() const {
   return r;
 }
 
-H5Output::~H5Output() {
+H5Output::~H5Output() { close_all(); }
+
+void H5Output::close_all() {
   for (Appendable* a : {&f_time_, &f_step_, &f_id_, &f_species_, &f_diam_, &f_pos_, &f_vel_, &f_ang_, &p_time_,
                         &p_frac_, &f_force_})
     if (a->dset >= 0) H5Dclose(a->dset);
@@ -102,6 +124,16 @@ H5Output::~H5Output() {
   if (profile_ >= 0) H5Gclose(profile_);
   if (frames_ >= 0) H5Gclose(frames_);
   if (file_ >= 0) H5Fclose(file_);
+  f_time_.dset = f_step_.dset = f_id_.dset = f_species_.dset = f_diam_.dset = f_pos_.dset = f_vel_.dset = -1;
+  f_ang_.dset = p_time_.dset = p_frac_.dset = f_force_.dset = -1;
+  series_.clear();
+  profile_ = frames_ = file_ = -1;
+  if (old_ >= 0) {  // a resume that failed before its copy replaced the output: the output stays as it was
+    H5Fclose(old_);
+    std::error_code ec;
+    std::filesystem::remove(resume_path(), ec);
+    old_ = -1;
+  }
 }
 
 H5Output::Appendable H5Output::make(hid_t group, const std::string& group_name, const char* name, hid_t type,
@@ -113,24 +145,6 @@ H5Output::Appendable H5Output::make(hid_t group, const std::string& group_name, 
     maxd.push_back(r);
     chunk.push_back(r);
   }
-  if (resuming_) {
-    // Cut back to the checkpoint's rows: anything written after it is written again.
-    const auto it = resume_rows_.find(full);
-    if (it == resume_rows_.end())
-      throw std::runtime_error(path_ + ": the checkpoint has no record of dataset " + full);
-    hid_t d = H5Dopen2(group, name, H5P_DEFAULT);
-    if (d < 0) throw std::runtime_error(path_ + ": dataset " + full + " is missing; cannot resume into this file");
-    hid_t space = H5Dget_space(d);
-    std::vector<hsize_t> have(dims.size());
-    const int nd = H5Sget_simple_extent_ndims(space);
-    if (nd == static_cast<int>(dims.size())) H5Sget_simple_extent_dims(space, have.data(), nullptr);
-    H5Sclose(space);
-    if (nd != static_cast<int>(dims.size()) || have[0] < it->second)
-      throw std::runtime_error(path_ + ": dataset " + full + " holds fewer rows than the checkpoint recorded");
-    dims[0] = it->second;
-    check(H5Dset_extent(d, dims.data()), "cutting " + full + " back to the checkpoint", path_);
-    return {full, d, row, type, it->second};
-  }
   if (row.empty()) chunk[0] = 256;
   hid_t space = H5Screate_simple(static_cast<int>(dims.size()), dims.data(), maxd.data());
   hid_t plist = H5Pcreate(H5P_DATASET_CREATE);
@@ -139,11 +153,67 @@ H5Output::Appendable H5Output::make(hid_t group, const std::string& group_name, 
   H5Pclose(plist);
   H5Sclose(space);
   if (d < 0) throw std::runtime_error(path_ + ": cannot create dataset " + full);
-  return {full, d, row, type, 0};
+  Appendable a{full, d, row, type, 0};
+  if (resuming_) {
+    try {
+      copy_rows(a);
+    } catch (...) {
+      H5Dclose(d);
+      throw;
+    }
+  }
+  return a;
 }
 
-void H5Output::append(Appendable& a, const void* data) {
-  std::vector<hsize_t> dims{a.rows + 1}, start{a.rows}, count{1};
+void H5Output::copy_rows(Appendable& a) {
+  const auto it = resume_rows_.find(a.name);
+  if (it == resume_rows_.end()) throw std::runtime_error(path_ + ": the checkpoint has no record of dataset " + a.name);
+  const hsize_t n = it->second;
+  hid_t src = H5Dopen2(old_, a.name.c_str(), H5P_DEFAULT);
+  if (src < 0) throw std::runtime_error(path_ + ": dataset " + a.name + " is missing; cannot resume into this file");
+  hid_t space = H5Dget_space(src);
+  const int nd = H5Sget_simple_extent_ndims(space);
+  std::vector<hsize_t> have(static_cast<std::size_t>(std::max(nd, 0)));
+  if (nd > 0) H5Sget_simple_extent_dims(space, have.data(), nullptr);
+  H5Sclose(space);
+  const bool same_rows = nd == static_cast<int>(a.row.size() + 1) && std::equal(a.row.begin(), a.row.end(), have.begin() + 1);
+  if (!same_rows || have[0] < n) {
+    H5Dclose(src);
+    throw std::runtime_error(path_ + ": dataset " + a.name +
+                             (same_rows ? " holds fewer rows than the checkpoint recorded" : " has rows of another shape"));
+  }
+  // In blocks of about 8 MB, through the new file's own append path.
+  std::size_t row_bytes = H5Tget_size(a.type);
+  for (hsize_t r : a.row) row_bytes *= r;
+  const hsize_t block = std::max<hsize_t>(1, (8u << 20) / row_bytes);
+  std::vector<unsigned char> buf(static_cast<std::size_t>(std::min(block, std::max<hsize_t>(n, 1))) * row_bytes);
+  for (hsize_t r0 = 0; r0 < n; r0 += block) {
+    const hsize_t m = std::min(block, n - r0);
+    std::vector<hsize_t> start{r0}, count{m};
+    for (hsize_t r : a.row) {
+      start.push_back(0);
+      count.push_back(r);
+    }
+    hid_t fspace = H5Dget_space(src);
+    H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
+    hid_t mspace = H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr);
+    const herr_t e = H5Dread(src, a.type, mspace, fspace, H5P_DEFAULT, buf.data());
+    H5Sclose(mspace);
+    H5Sclose(fspace);
+    if (e < 0) {
+      H5Dclose(src);
+      throw std::runtime_error(path_ + ": cannot read rows of " + a.name + " before the checkpoint (damaged file)");
+    }
+    append_rows(a, buf.data(), m);
+  }
+  H5Dclose(src);
+  copied_.insert(a.name);
+}
+
+void H5Output::append(Appendable& a, const void* data) { append_rows(a, data, 1); }
+
+void H5Output::append_rows(Appendable& a, const void* data, hsize_t m) {
+  std::vector<hsize_t> dims{a.rows + m}, start{a.rows}, count{m};
   for (hsize_t r : a.row) {
     dims.push_back(r);
     start.push_back(0);
@@ -157,7 +227,7 @@ void H5Output::append(Appendable& a, const void* data) {
   H5Sclose(mspace);
   H5Sclose(fspace);
   check(e, "writing", path_);
-  ++a.rows;
+  a.rows += m;
 }
 
 void H5Output::write_frame(double time, long step, const std::vector<std::int64_t>& id,
@@ -176,15 +246,15 @@ void H5Output::write_frame(double time, long step, const std::vector<std::int64_
 }
 
 void H5Output::init_profile(const std::vector<double>& edges) {
-  const bool exists = resuming_ && H5Lexists(file_, "profile", H5P_DEFAULT) > 0;
   profile_ = group("profile");
   const hsize_t ne = edges.size();
-  if (!exists) {
+  {
     hid_t space = H5Screate_simple(1, &ne, nullptr);
     hid_t ds = H5Dcreate2(profile_, "edges", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, edges.data());
-    H5Dclose(ds);
+    const herr_t e = ds < 0 ? ds : H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, edges.data());
+    if (ds >= 0) H5Dclose(ds);
     H5Sclose(space);
+    check(e, "writing profile/edges", path_);
   }
   p_time_ = make(profile_, "profile", "time", H5T_NATIVE_DOUBLE, {});
   p_frac_ = make(profile_, "profile", "small_fraction", H5T_NATIVE_DOUBLE, {ne - 1});

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -21,9 +22,11 @@ using RowCounts = std::map<std::string, std::uint64_t>;
 class H5Output {
  public:
   // with_force: snapshots also carry each particle's contact force.
-  // resume: open the existing file instead of creating it, and cut every
-  // appendable dataset back to the rows given (a checkpoint's record); the
-  // datasets and groups the run declares are then opened, not created.
+  // resume: continue the existing file from a checkpoint: every dataset the run
+  // declares starts with the existing file's rows up to the checkpoint's
+  // record (rows written after it are written again). They are copied into a
+  // new file, OUT.resuming, which replaces OUT at start_swmr(); a resume that
+  // fails before then leaves OUT as it was.
   H5Output(const std::string& path, int dim, std::int64_t n_particles, bool with_force = false,
            const RowCounts* resume = nullptr);
   ~H5Output();
@@ -70,18 +73,25 @@ class H5Output {
   hid_t group(const std::string& name);  // created, or opened when resuming
   std::vector<const Appendable*> all() const;
   void append(Appendable& a, const void* data);
+  void append_rows(Appendable& a, const void* data, hsize_t m);
+  void copy_rows(Appendable& a);  // resuming: the old file's rows up to the checkpoint
+  void close_all();
+  void commit_resume();           // resuming: the copy replaces the old file
+  std::string resume_path() const { return path_ + ".resuming"; }
   void write_frame(double time, long step, const std::vector<std::int64_t>& id, const std::vector<std::int32_t>& sp,
                    const std::vector<double>& d, const std::vector<double>& x, const std::vector<double>& v,
                    const std::vector<double>& w);
 
   std::string path_;
   hid_t file_ = -1, frames_ = -1, profile_ = -1;
+  hid_t old_ = -1;  // resuming: the file being continued, read-only until the copy replaces it
   Appendable f_time_, f_step_, f_id_, f_species_, f_diam_, f_pos_, f_vel_, f_ang_;
   Appendable p_time_, p_frac_, f_force_;
   bool with_force_ = false;
   bool resuming_ = false;
   bool swmr_ = false;
-  RowCounts resume_rows_;  // rows to cut each dataset back to, when resuming
+  RowCounts resume_rows_;       // resuming: rows of each dataset to carry over
+  std::set<std::string> copied_;  // resuming: datasets carried over so far
   struct Series {
     hid_t group = -1;
     std::vector<Appendable> columns;
