@@ -199,8 +199,9 @@ TEST(BoxScenes, AllParseWithThePapersGrainsAndWalls) {
     // no initial overlaps among grains and the big disk
     for (std::size_t i = 0; i < p.size(); ++i)
       for (std::size_t j = i + 1; j < p.size(); ++j)
-        if (p.species[i] != kWallSpecies && p.species[j] != kWallSpecies)
+        if (p.species[i] != kWallSpecies && p.species[j] != kWallSpecies) {
           ASSERT_GT((p.x[i] - p.x[j]).norm(), 0.5 * (p.d[i] + p.d[j])) << e.path();
+        }
   }
   EXPECT_EQ(n, 13);  // 2.6/2.8/3.0 Hz with and without the big disk, five radii, two ramps
 }

@@ -60,9 +60,10 @@ struct Gear5 {
   DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next) const {
     DriftStats st;
+    const auto pose = pose_at(motion, t_next);
     auto [r2, r3, r4, r5, q0, q2, q3, q4, q5] = Columns(p);
     for (std::size_t i = lo; i < hi; ++i) {
-      if (place_if_wall(motion, p, i, t_next, box, x_ref[i], st)) continue;
+      if (place_if_wall(motion, pose, p, i, box, x_ref[i], st)) continue;
       const V r1 = dt * p.v[i];
       const V step = r1 + r2[i] + r3[i] + r4[i] + r5[i];
       V x = p.x[i] + step;  // a copy: see leapfrog.hpp

@@ -32,8 +32,9 @@ struct Leapfrog {
                         std::size_t hi, double t_next) const {
     const double h = 0.5 * dt;
     DriftStats st;
+    const auto pose = pose_at(motion, t_next);
     for (std::size_t i = lo; i < hi; ++i) {
-      if (place_if_wall(motion, p, i, t_next, box, x_ref[i], st)) continue;
+      if (place_if_wall(motion, pose, p, i, box, x_ref[i], st)) continue;
       // Work on copies and store each column once: reading back a position
       // just stored in pieces (the periodic wrap writes one component) stalls
       // the load on the pending stores.

@@ -64,29 +64,44 @@ struct ShakerMotion {
     return v;
   }
 
-  void place(ParticleStore<Dim>& p, std::size_t i, double t) const {
+  // The box's displacement and velocity at one time: evaluated once per step,
+  // not once per wall particle (three transcendental calls each).
+  struct Pose {
+    double y = 0.0, vy = 0.0;
+  };
+  Pose pose(double t) const { return {y(t), vy(t)}; }
+
+  void place(ParticleStore<Dim>& p, std::size_t i, const Pose& b) const {
     V x = anchor[static_cast<std::size_t>(p.id[i])];
-    x[1] += y(t);
+    x[1] += b.y;
     V v = V::Zero();
-    v[1] = vy(t);
+    v[1] = b.vy;
     p.x[i] = x;
     p.v[i] = v;
     p.w[i].setZero();
   }
 };
 
+struct NoPose {};
+inline NoPose pose_at(const NoMotion&, double) { return {}; }
+template <int Dim>
+typename ShakerMotion<Dim>::Pose pose_at(const ShakerMotion<Dim>& m, double t) {
+  return m.pose(t);
+}
+
 template <class Motion>
 inline constexpr bool kHasMotion = !std::is_same_v<Motion, NoMotion>;
 
 // For the integrators' first stage: if particle i is a wall particle, put it
-// where the motion says at t_next, record its displacement and return true.
-template <class Motion, int Dim, class Stats, class BoxT>
-inline bool place_if_wall(const Motion& motion, ParticleStore<Dim>& p, std::size_t i, double t_next, const BoxT& box,
-                          const Vec<Dim>& x_ref, Stats& st) {
+// where the motion's pose (pose_at(motion, t_next), once per step) says,
+// record its displacement and return true.
+template <class Motion, class Pose, int Dim, class Stats, class BoxT>
+inline bool place_if_wall(const Motion& motion, const Pose& pose, ParticleStore<Dim>& p, std::size_t i,
+                          const BoxT& box, const Vec<Dim>& x_ref, Stats& st) {
   if constexpr (kHasMotion<Motion>) {
     if (p.species[i] == kWallSpecies) {
       const Vec<Dim> old = p.x[i];
-      motion.place(p, i, t_next);
+      motion.place(p, i, pose);
       st.add(box, (p.x[i] - old).squaredNorm(), p.x[i], x_ref);
       return true;
     }
