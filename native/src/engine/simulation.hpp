@@ -213,17 +213,31 @@ class Simulation {
     max_range_ = Law::range(dmax, dmax);
   }
 
-  // The per-thread force buffers and contact batches, sized before a parallel
+  // The per-thread ghost buffers and contact batches, sized before a parallel
   // region opens (inside it, sizing them would cost a barrier every step).
   void prepare_buffers(int nt) {
     const std::size_t n = p.size();
-    if (static_cast<int>(fbuf_.size()) != nt - 1 || (nt > 1 && fbuf_[0].size() != n)) {
-      fbuf_.assign(nt - 1, std::vector<V>(n));
-      tbuf_.assign(nt - 1, std::vector<A>(n));
+    const std::size_t nb = nt > 1 ? static_cast<std::size_t>(nt) : 0;
+    if (fbuf_.size() != nb || (nb > 0 && fbuf_[0].size() != n)) {
+      fbuf_.assign(nb, std::vector<V>(n));
+      tbuf_.assign(nb, std::vector<A>(n));
     }
     if constexpr (HasPairBatch<Law, Dim>::value)
       if (static_cast<int>(batch_.size()) != nt) batch_.resize(nt);
   }
+
+  // Where a thread's pair loop puts forces and torques: the store for the
+  // particles of its block [lo, lo + len), its ghost buffer for the others
+  // (the store itself when one thread owns every particle).
+  struct Sinks {
+    V* f;
+    A* t;
+    V* gf;
+    A* gt;
+    std::size_t lo, len;
+    V& force(std::uint32_t j) const { return (j - lo < len ? f : gf)[j]; }
+    A& torque(std::uint32_t j) const { return (j - lo < len ? t : gt)[j]; }
+  };
 
   struct Stamps {
     PhaseTimers::Clock::time_point start = PhaseTimers::Clock::now(), first = start, pairs_done = start,
@@ -237,45 +251,52 @@ class Simulation {
     ts.end = PhaseTimers::Clock::now();
   }
 
-  // Called by every thread of a parallel region. Pair contacts go into
-  // per-thread buffers, reduced in thread order (so the result is bitwise
-  // repeatable for a thread count), then wall contacts per particle. Thread 0's
-  // buffer is the store's own force column, so one thread needs no buffer and
-  // no reduction. Another thread zeroes, and a reducer reads, only the chunks
-  // of a buffer its owner writes, so little data crosses between cores.
-  // t_pos: the time of the positions (moving walls are placed at it).
+  // Called by every thread of a parallel region. Thread t owns the particles
+  // of its block [lo, hi) (its rows of the neighbour list): it writes their
+  // force and torque straight into the store, and a contact's share for a
+  // particle outside the block into its own ghost buffer (indexed like the
+  // store). After one barrier each thread adds the others' ghost entries for
+  // its block, in thread order, so the sums are bitwise repeatable for a
+  // thread count; one thread has no ghosts and adds nothing. Only the chunks
+  // of a ghost buffer its owner writes (NeighborList::touched) are zeroed and
+  // read, so little data crosses between cores. Then wall contacts, per
+  // particle of the block. t_pos: the time of the positions (moving walls are
+  // placed at it).
   void forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts) {
     const std::size_t n = p.size();
     constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
-    V* F = t == 0 ? p.f.data() : fbuf_[t - 1].data();
-    A* T = t == 0 ? p.tq.data() : tbuf_[t - 1].data();
-    if (t == 0) {
-      std::fill(p.f.begin(), p.f.end(), V::Zero());
-      std::fill(p.tq.begin(), p.tq.end(), A::Zero());
-    } else {
+    std::fill(p.f.begin() + static_cast<std::ptrdiff_t>(lo), p.f.begin() + static_cast<std::ptrdiff_t>(hi), V::Zero());
+    std::fill(p.tq.begin() + static_cast<std::ptrdiff_t>(lo), p.tq.begin() + static_cast<std::ptrdiff_t>(hi),
+              A::Zero());
+    Sinks sk{p.f.data(), p.tq.data(), p.f.data(), p.tq.data(), lo, hi - lo};
+    if (nt > 1) {
+      sk.gf = fbuf_[static_cast<std::size_t>(t)].data();
+      sk.gt = tbuf_[static_cast<std::size_t>(t)].data();
       for (std::size_t c = 0; c < n_chunks; ++c)
         if (nl_.touched(t, c))
           for (std::size_t i = c * kChunk, e = std::min(n, i + kChunk); i < e; ++i) {
-            F[i].setZero();
-            T[i].setZero();
+            sk.gf[i].setZero();
+            sk.gt[i].setZero();
           }
     }
     if constexpr (HasPairBatch<Law, Dim>::value)
-      pairs_batched(t, lo, hi, F, T);
+      pairs_batched(t, lo, hi, sk);
     else
-      pairs_scalar(t, lo, hi, F, T);
+      pairs_scalar(t, lo, hi, sk);
+    if (nt > 1) {
 #pragma omp barrier
-    // p.f holds thread 0's sum; add the others' in thread order.
-    for (std::size_t i = lo; i < hi;) {
-      const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
-      for (int u = 1; u < nt; ++u)
-        if (nl_.touched(u, c))
-          for (std::size_t q = i; q < e; ++q) {
-            p.f[q] += fbuf_[u - 1][q];
-            p.tq[q] += tbuf_[u - 1][q];
-          }
-      i = e;
+      // Add the other threads' ghost entries for this block, in thread order.
+      for (std::size_t i = lo; i < hi;) {
+        const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
+        for (int u = 0; u < nt; ++u)
+          if (u != t && nl_.touched(u, c))
+            for (std::size_t q = i; q < e; ++q) {
+              p.f[q] += fbuf_[static_cast<std::size_t>(u)][q];
+              p.tq[q] += tbuf_[static_cast<std::size_t>(u)][q];
+            }
+        i = e;
+      }
     }
 #pragma omp master
     ts.pairs_done = PhaseTimers::Clock::now();
@@ -286,7 +307,7 @@ class Simulation {
   }
 
   // The pair loop, one contact at a time: i's own sums stay in registers.
-  void pairs_scalar(int t, std::size_t lo, std::size_t hi, V* F, A* T) {
+  void pairs_scalar(int t, std::size_t lo, std::size_t hi, const Sinks& sk) {
     const std::uint32_t* col = nl_.col(t);
     for (std::size_t i = lo; i < hi; ++i) {
       const V xi = p.x[i], vi = p.v[i];
@@ -305,31 +326,33 @@ class Simulation {
             law.pair_force(dr, r2, di, p.d[j], vi - p.v[j], wi, p.w[j], ci, p.species[j], inv_mi, p.inv_m[j]);
         fi += c.f;
         ti += c.ti;
-        F[j] -= c.f;
-        T[j] += c.tj;
+        sk.force(j) -= c.f;
+        sk.torque(j) += c.tj;
       }
-      F[i] += fi;
-      T[i] += ti;
+      sk.f[i] += fi;
+      sk.t[i] += ti;
     }
   }
 
   // The pair loop for a law with a batch kernel (contact/pair_batch.hpp): the
   // contacts in range are gathered into the thread's batch, evaluated
   // together, and added to both particles in the order they were found.
-  void pairs_batched(int t, std::size_t lo, std::size_t hi, V* F, A* T) {
+  void pairs_batched(int t, std::size_t lo, std::size_t hi, const Sinks& sk) {
     PairBatch<Dim>& b = batch_[t];
     constexpr int kA = PairBatch<Dim>::kAng;
     const auto flush = [&] {
       law.pair_force_batch(b);
       for (int q = 0; q < b.n; ++q) {
         const std::uint32_t i = b.i[q], j = b.j[q];
+        V& fj = sk.force(j);
+        A& tj = sk.torque(j);
         for (int a = 0; a < Dim; ++a) {
-          F[i][a] += b.f[a][q];
-          F[j][a] -= b.f[a][q];
+          sk.f[i][a] += b.f[a][q];
+          fj[a] -= b.f[a][q];
         }
         for (int a = 0; a < kA; ++a) {
-          T[i][a] += b.ti[a][q];
-          T[j][a] += b.tj[a][q];
+          sk.t[i][a] += b.ti[a][q];
+          tj[a] += b.tj[a][q];
         }
       }
       b.n = 0;

@@ -20,8 +20,9 @@ template <int Dim>
 class NeighborList {
  public:
   using V = Vec<Dim>;
-  // Granularity at which a thread records which particles' force entries it
-  // writes, so that only those are zeroed and reduced.
+  // Granularity at which a thread records which particles outside its own
+  // block it writes forces to (in its ghost buffer), so that only those
+  // entries are zeroed and reduced.
   static constexpr std::size_t kChunk = 64;
 
   // Sorts the store by cell (reorder), then lists pairs. RangeFn(d_i, d_j) is
@@ -69,7 +70,6 @@ class NeighborList {
       const double* xflat = reinterpret_cast<const double*>(x);
       for (std::size_t i = lo; i < hi; ++i) {
         row_begin_[i] = static_cast<std::uint32_t>(n_out);
-        mark[i / kChunk] = 1;
         // The store is in cell order: the stencil changes only with the cell.
         if (cells_.cell_of(i) != cell) {
           cell = cells_.cell_of(i);
@@ -117,7 +117,7 @@ class NeighborList {
             const bool hit = (dr.squaredNorm() < rc * rc) & !(excluded_i & (species[j] == exclude_species));
             *w = j;
             w += hit;
-            mark[j / kChunk] |= static_cast<std::uint8_t>(hit);
+            mark[j / kChunk] |= static_cast<std::uint8_t>(hit & ((j < lo) | (j >= hi)));
           }
           n_out += static_cast<std::size_t>(w - o);
         }
@@ -134,7 +134,8 @@ class NeighborList {
   const std::uint32_t* col(int t) const { return col_[t].data(); }
   std::uint32_t begin(std::size_t i) const { return row_begin_[i]; }
   std::uint32_t end(std::size_t i) const { return row_end_[i]; }
-  // Whether thread t writes force entries in chunk c (particles c*kChunk ...).
+  // Whether thread t writes force entries of particles outside its block in
+  // chunk c (particles c*kChunk ...).
   bool touched(int t, std::size_t c) const { return touched_[t][c] != 0; }
   std::size_t n_pairs() const {
     std::size_t k = 0;
