@@ -3,7 +3,9 @@
 // reorder() and is what output and tests match on.
 #pragma once
 #include <algorithm>
+#include <array>
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 #include "core/space.hpp"
@@ -55,35 +57,69 @@ struct ParticleStore {
     std::fill(w.begin(), w.end(), A::Zero());
   }
 
+  // Size the scratch columns of reorder_in_parallel(); called before the
+  // parallel region (inside it, sizing would cost barriers).
+  void prepare_reorder() {
+    scratch_v_.resize(size());
+    scratch_a_.resize(size());
+    scratch_d_.resize(size());
+    scratch_s_.resize(size());
+    scratch_id_.resize(size());
+  }
+
   // Permute every column: new[k] = old[perm[k]]. Applied after a cell sort so
   // that particles close in space are close in memory. Called inside an OpenMP
   // parallel region by every thread with its own block [lo, hi): each thread
-  // writes only its own block, so the data it integrates next stays in its cache.
-  void reorder_in_parallel(const std::vector<std::uint32_t>& perm, std::size_t lo, std::size_t hi) {
-    permute(x, scratch_v_, perm, lo, hi);
-    permute(v, scratch_v_, perm, lo, hi);
-    permute(f, scratch_v_, perm, lo, hi);
-    permute(w, scratch_a_, perm, lo, hi);
-    permute(tq, scratch_a_, perm, lo, hi);
-    permute(d, scratch_d_, perm, lo, hi);
-    permute(inv_m, scratch_d_, perm, lo, hi);
-    permute(inv_i, scratch_d_, perm, lo, hi);
-    permute(species, scratch_s_, perm, lo, hi);
-    permute(id, scratch_id_, perm, lo, hi);
-    for (auto& col : aux_v) permute(col, scratch_v_, perm, lo, hi);
-    for (auto& col : aux_a) permute(col, scratch_a_, perm, lo, hi);
+  // writes only its own block, so the data it integrates next stays in its
+  // cache. The columns go in rounds, one of each type per round into that
+  // type's scratch column, which is then swapped in: two barriers a round, as
+  // many rounds as the type with most columns has. forces = false leaves f and
+  // tq unpermuted, for a caller that recomputes them before reading them.
+  void reorder_in_parallel(const std::vector<std::uint32_t>& perm, std::size_t lo, std::size_t hi,
+                           bool forces = true) {
+    constexpr std::size_t kMax = 8;
+    std::array<std::vector<V>*, kMax> cv{};
+    std::array<std::vector<A>*, kMax> ca{};
+    std::size_t nv = 0, na = 0;
+    cv[nv++] = &x;
+    cv[nv++] = &v;
+    ca[na++] = &w;
+    if (forces) {
+      cv[nv++] = &f;
+      ca[na++] = &tq;
+    }
+    for (auto& col : aux_v) cv[nv++ % kMax] = &col;
+    for (auto& col : aux_a) ca[na++ % kMax] = &col;
+    if (nv > kMax || na > kMax) throw std::logic_error("reorder_in_parallel: more auxiliary columns than it holds");
+    const std::array<std::vector<double>*, 3> cd{&d, &inv_m, &inv_i};
+    const std::size_t rounds = std::max({nv, na, cd.size()});
+    for (std::size_t r = 0; r < rounds; ++r) {
+      if (r < nv) gather(*cv[r], scratch_v_, perm, lo, hi);
+      if (r < na) gather(*ca[r], scratch_a_, perm, lo, hi);
+      if (r < cd.size()) gather(*cd[r], scratch_d_, perm, lo, hi);
+      if (r == 0) {
+        gather(species, scratch_s_, perm, lo, hi);
+        gather(id, scratch_id_, perm, lo, hi);
+      }
+#pragma omp barrier
+#pragma omp single
+      {
+        if (r < nv) cv[r]->swap(scratch_v_);
+        if (r < na) ca[r]->swap(scratch_a_);
+        if (r < cd.size()) cd[r]->swap(scratch_d_);
+        if (r == 0) {
+          species.swap(scratch_s_);
+          id.swap(scratch_id_);
+        }
+      }  // implicit barrier
+    }
   }
 
  private:
   template <class T>
-  static void permute(std::vector<T>& col, std::vector<T>& scratch, const std::vector<std::uint32_t>& perm,
-                      std::size_t lo, std::size_t hi) {
-#pragma omp single
-    scratch.resize(col.size());
+  static void gather(const std::vector<T>& col, std::vector<T>& scratch, const std::vector<std::uint32_t>& perm,
+                     std::size_t lo, std::size_t hi) {
     for (std::size_t k = lo; k < hi; ++k) scratch[k] = col[perm[k]];
-#pragma omp barrier
-#pragma omp single
-    col.swap(scratch);
   }
 
   std::vector<V> scratch_v_;

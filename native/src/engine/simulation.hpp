@@ -97,7 +97,7 @@ class Simulation {
       check_stable(st);  // throws if unstable
       {
         ScopedPhase ph(timers, Phase::neighbor);
-        rebuild();
+        rebuild(false);
       }
       ts = Stamps{};
 #pragma omp parallel num_threads(nt)
@@ -131,8 +131,11 @@ class Simulation {
       throw std::runtime_error("checkpoint: the saved neighbour-list reference does not match the saved particle order");
   }
 
-  void rebuild() {
-    nl_.build(p, box, max_range_, skin, [](double a, double b) { return Law::range(a, b); }, exclude_species);
+  // forces = false: f and tq are recomputed before anything reads them (the
+  // rebuild inside a step, after the drift), so the reorder skips them.
+  void rebuild(bool forces = true) {
+    nl_.build(p, box, max_range_, skin, [](double a, double b) { return Law::range(a, b); }, exclude_species,
+              forces);
   }
 
   // Forces at the current state (no integration); used at start-up.

@@ -29,9 +29,11 @@ class NeighborList {
   // the contact law's interaction range; a template, so it inlines. Thread t
   // owns the rows of its block thread_block(n, nt, t) and keeps them in its own
   // column array, so nothing is copied between threads.
+  // forces = false: the caller recomputes f and tq before reading them, so
+  // the reorder leaves them as they are.
   template <class RangeFn>
   void build(ParticleStore<Dim>& p, const Box<Dim>& box, double max_range, double skin, RangeFn range,
-             int exclude_species = -1) {
+             int exclude_species = -1, bool forces = true) {
     skin_ = skin;
     const std::size_t n = p.size();
     nt_ = omp_get_max_threads();
@@ -44,12 +46,13 @@ class NeighborList {
     double d_max = 0.0;
     for (double dj : p.d) d_max = std::max(d_max, dj);
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
+    p.prepare_reorder();
 #pragma omp parallel num_threads(nt_)
     {
       const int t = omp_get_thread_num();
       const auto [lo, hi] = thread_block(n, nt_, t);
       cells_.build_in_region(box, p.x, max_range + skin, t, nt_, lo, hi);
-      p.reorder_in_parallel(cells_.sorted(), lo, hi);
+      p.reorder_in_parallel(cells_.sorted(), lo, hi, forces);
 #pragma omp barrier
       auto& out = col_[t];
       auto& mark = touched_[t];
