@@ -1,5 +1,7 @@
 // The 24 drum scenes of Table I parse, and their initial states have Table I's
 // particle counts (within 2 %); bad scene input fails with the file, key and reason.
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -20,8 +22,14 @@ fs::path source_dir() {
   return s ? fs::path(s) : fs::path(".");
 }
 
+// A name of this process's own: ctest runs the tests of this file in parallel
+// processes, which must not write one another's scene files.
+fs::path temp_path(const std::string& name) {
+  return fs::temp_directory_path() / (std::to_string(::getpid()) + "_" + name);
+}
+
 std::string write_temp(const std::string& name, const std::string& text) {
-  const auto p = fs::temp_directory_path() / name;
+  const auto p = temp_path(name);
   std::ofstream(p) << text;
   return p.string();
 }
@@ -142,7 +150,7 @@ TEST(Scenes, ErrorsNameFileKeyAndReason) {
 }
 
 TEST(Scenes, ErrorsGiveTheLineAndTheNearestKey) {
-  const std::string path = (fs::temp_directory_path() / "granular_scene_test.toml").string();
+  const std::string path = temp_path("granular_scene_test.toml").string();
   // kMinimal opens with a newline: [neighbor] lands on line 21, skn on 22.
   EXPECT_EQ(error_of(std::string(kMinimal) + "[neighbor]\nskn = 0.3\n"),
             path + ":22: neighbor.skn: unknown key; did you mean neighbor.skin?");
