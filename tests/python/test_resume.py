@@ -282,7 +282,7 @@ def test_a_resume_that_fails_leaves_the_output_as_it_was(tmp_path, drum_ref):
         h5["profile/time"].resize((1,))
     before = out.read_bytes()
     r = run(DRUM, DRUM_SETS, out, "--resume")
-    assert r.returncode != 0
+    assert r.returncode == 1, r.stderr
     assert "profile/time" in r.stderr and "fewer rows than the checkpoint recorded" in r.stderr, r.stderr
     assert out.read_bytes() == before
     assert not Path(str(out) + ".resuming").exists()
