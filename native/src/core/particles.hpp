@@ -88,9 +88,10 @@ struct ParticleStore {
       cv[nv++] = &f;
       ca[na++] = &tq;
     }
-    for (auto& col : aux_v) cv[nv++ % kMax] = &col;
-    for (auto& col : aux_a) ca[na++ % kMax] = &col;
-    if (nv > kMax || na > kMax) throw std::logic_error("reorder_in_parallel: more auxiliary columns than it holds");
+    if (nv + aux_v.size() > kMax || na + aux_a.size() > kMax)
+      throw std::logic_error("reorder_in_parallel: more auxiliary columns than it holds");
+    for (auto& col : aux_v) cv[nv++] = &col;
+    for (auto& col : aux_a) ca[na++] = &col;
     const std::array<std::vector<double>*, 3> cd{&d, &inv_m, &inv_i};
     const std::size_t rounds = std::max({nv, na, cd.size()});
     for (std::size_t r = 0; r < rounds; ++r) {
