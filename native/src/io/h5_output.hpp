@@ -25,7 +25,7 @@ class H5Output {
   // resume: continue the existing file from a checkpoint: every dataset the run
   // declares starts with the existing file's rows up to the checkpoint's
   // record (rows written after it are written again). They are copied into a
-  // new file, OUT.resuming, which replaces OUT at start_swmr(); a resume that
+  // new file, OUT.h5.resuming (OUT + ".resuming"), which replaces OUT at start_swmr(); a resume that
   // fails before then leaves OUT as it was.
   H5Output(const std::string& path, int dim, std::int64_t n_particles, bool with_force = false,
            const RowCounts* resume = nullptr);
@@ -70,7 +70,7 @@ class H5Output {
     hsize_t rows = 0;
   };
   Appendable make(hid_t group, const std::string& group_name, const char* name, hid_t type, std::vector<hsize_t> row);
-  hid_t group(const std::string& name);  // created, or opened when resuming
+  hid_t group(const std::string& name);  // created in the file being written
   std::vector<const Appendable*> all() const;
   void append(Appendable& a, const void* data);
   void append_rows(Appendable& a, const void* data, hsize_t m);
