@@ -25,8 +25,8 @@ class H5Output {
   // resume: continue the existing file from a checkpoint: every dataset the run
   // declares starts with the existing file's rows up to the checkpoint's
   // record (rows written after it are written again). They are copied into a
-  // new file, OUT.h5.resuming (OUT + ".resuming"), which replaces OUT at start_swmr(); a resume that
-  // fails before then leaves OUT as it was.
+  // new file beside it (path + ".resuming"), which replaces it at
+  // start_swmr(); a resume that fails before then leaves it as it was.
   H5Output(const std::string& path, int dim, std::int64_t n_particles, bool with_force = false,
            const RowCounts* resume = nullptr);
   ~H5Output();
