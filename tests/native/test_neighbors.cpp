@@ -98,3 +98,90 @@ TEST(Neighbors, RebuiltAfterMotion) {
   const auto listed = sim.neighbors().pairs_by_id(sim.p);
   for (const auto& pr : in_range) EXPECT_TRUE(std::binary_search(listed.begin(), listed.end(), pr));
 }
+
+// Two threads own blocks of equal work, not equal counts: a packed half (in
+// contact) and a dilute half (listed pairs, few contacts) split away from the
+// middle, the blocks tile the store, and the forces still equal a direct sum
+// (the ghost chunks each thread marks, zeroes and reduces follow the blocks).
+TEST(Neighbors, TwoThreadBlocksBalanceWork) {
+  omp_set_num_threads(2);
+  FreeSim sim;
+  sim.box.lo = Eigen::Vector3d(-5, -20, -5);
+  sim.box.hi = Eigen::Vector3d(5, 80, 5);
+  sim.box.periodic = {false, false, false};
+  sim.box.finalize();
+  std::mt19937_64 gen(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  // y < 0: a simple cubic lattice of spacing 0.95 (every neighbour in
+  // contact); y > 0: a gas of the same number of particles at a quarter of
+  // the density, a few in contact.
+  for (int ix = 0; ix < 10; ++ix)
+    for (int iy = 0; iy < 20; ++iy)
+      for (int iz = 0; iz < 10; ++iz)
+        add_sphere(sim, Eigen::Vector3d(-4.5 + 0.95 * ix, -19.5 + 0.95 * iy, -4.5 + 0.95 * iz),
+                   Eigen::Vector3d(0.1 * u(gen), 0, 0), Eigen::Vector3d::Zero(), 1.0);
+  while (sim.p.size() < 4000) {
+    const Eigen::Vector3d x(-4.5 + 9 * u(gen), 0.5 + 79 * u(gen), -4.5 + 9 * u(gen));
+    bool clash = false;  // no overlaps: Eq. (1) stays moderate, the force check sharp
+    for (std::size_t j = 2000; j < sim.p.size() && !clash; ++j) clash = (x - sim.p.x[j]).norm() < 1.0;
+    if (!clash) add_sphere(sim, x, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 1.0);
+  }
+  sim.skin = 0.4;
+  sim.init();
+  const auto& nl = sim.neighbors();
+  const auto& p = sim.p;
+  const std::size_t n = p.size();
+  ASSERT_EQ(nl.threads(), 2);
+  const auto [lo0, hi0] = nl.block(0);
+  const auto [lo1, hi1] = nl.block(1);
+  EXPECT_EQ(lo0, 0u);
+  EXPECT_EQ(hi0, lo1);
+  EXPECT_EQ(hi1, n);
+  // Each particle's work from its row, recounted here: listed pairs, contacts.
+  std::vector<double> work(n, 0.0);
+  double contacts = 0.0;
+  for (int t = 0; t < 2; ++t) {
+    const auto [rlo, rhi] = nl.row_block(t);
+    for (std::size_t i = rlo; i < rhi; ++i) {
+      work[i] = NeighborList<3>::kParticleWeight;
+      for (std::uint32_t k = nl.begin(i); k < nl.end(i); ++k) {
+        const std::uint32_t j = nl.col(t)[k];
+        const double rc = Law3::range(p.d[i], p.d[j]);
+        const bool touch = (p.x[i] - p.x[j]).squaredNorm() < rc * rc;
+        work[i] += 1.0 + (touch ? NeighborList<3>::kContactWeight : 0.0);
+        contacts += touch;
+      }
+    }
+  }
+  ASSERT_GT(contacts, 5000.0);
+  const auto sum = [&](std::size_t a, std::size_t b) {
+    double s = 0.0;
+    for (std::size_t i = a; i < b; ++i) s += work[i];
+    return s;
+  };
+  const double total = sum(0, n), w_max = *std::max_element(work.begin(), work.end());
+  // Balanced to within one particle's work...
+  EXPECT_LE(std::abs(sum(lo0, hi0) - sum(lo1, hi1)), w_max) << "blocks " << hi0 << " + " << n - lo1;
+  // ... where equal counts would not be: the test would catch a split by count.
+  EXPECT_GT(std::abs(sum(0, n / 2) - sum(n / 2, n)), 0.2 * total);
+  // The forces, against a direct O(N^2) sum of the law.
+  std::vector<Eigen::Vector3d> F(n, Eigen::Vector3d::Zero()), T(n, Eigen::Vector3d::Zero());
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const Eigen::Vector3d dr = p.x[i] - p.x[j];
+      const double rc = Law3::range(p.d[i], p.d[j]);
+      if (dr.squaredNorm() >= rc * rc) continue;
+      const auto r = sim.law.pair_force(dr, dr.squaredNorm(), p.d[i], p.d[j], p.v[i] - p.v[j], p.w[i], p.w[j],
+                                        p.species[i], p.species[j], p.inv_m[i], p.inv_m[j]);
+      F[i] += r.f;
+      F[j] -= r.f;
+      T[i] += r.ti;
+      T[j] += r.tj;
+    }
+  double fscale = 0.0;
+  for (const auto& f : F) fscale = std::max(fscale, f.norm());
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_LE((p.f[i] - F[i]).norm(), 1e-12 * fscale) << "particle id " << p.id[i];
+    ASSERT_LE((p.tq[i] - T[i]).norm(), 1e-12 * fscale) << "particle id " << p.id[i];
+  }
+}

@@ -81,7 +81,7 @@ CoulombCensus coulomb_census(const Sim& sim) {
   const auto& nl = sim.neighbors();
   const std::size_t n = p.size();
   for (int t = 0; t < nl.threads(); ++t) {
-    const auto [lo, hi] = thread_block(n, nl.threads(), t);
+    const auto [lo, hi] = nl.row_block(t);
     const std::uint32_t* col = nl.col(t);
     for (std::size_t i = lo; i < hi; ++i)
       for (std::uint32_t k = nl.begin(i), ke = nl.end(i); k < ke; ++k) {

@@ -70,7 +70,7 @@ void check_health(const Sim& sim, const HealthLimits& lim) {
   std::size_t wi = 0, wj = 0;
   bool found = false;
   for (int t = 0; t < nl.threads(); ++t) {
-    const auto [lo, hi] = thread_block(p.size(), nl.threads(), t);
+    const auto [lo, hi] = nl.row_block(t);
     const std::uint32_t* col = nl.col(t);
     for (std::size_t i = lo; i < hi; ++i)
       for (std::uint32_t k = nl.begin(i); k < nl.end(i); ++k) {

@@ -78,8 +78,11 @@ class Simulation {
 #pragma omp parallel num_threads(nt)
     {
       const int t = omp_get_thread_num();
-      const auto [lo, hi] = thread_block(p.size(), nt, t);
-      stats_[t] = integrator.first_half(p, box, xref, lo, hi, time + integrator.dt);
+      {
+        // The drift costs the same for every particle: equal counts.
+        const auto [lo, hi] = nl_.row_block(t);
+        stats_[t] = integrator.first_half(p, box, xref, lo, hi, time + integrator.dt);
+      }
 #pragma omp barrier
       // Every thread reaches the same verdict from the same numbers.
       const auto all = combine(stats_);
@@ -90,7 +93,10 @@ class Simulation {
         finished = go_on;
         ts.first = PhaseTimers::Clock::now();
       }
-      if (go_on) forces_and_finish(t, nt, lo, hi, time + integrator.dt, ts);
+      if (go_on) {
+        const auto [lo, hi] = nl_.block(t);
+        forces_and_finish(t, nt, lo, hi, time + integrator.dt, ts);
+      }
     }
     timers.add(Phase::integrate, ts.first - ts.start);
     if (!finished) {
@@ -103,7 +109,7 @@ class Simulation {
 #pragma omp parallel num_threads(nt)
       {
         const int t = omp_get_thread_num();
-        const auto [lo, hi] = thread_block(p.size(), nt, t);
+        const auto [lo, hi] = nl_.block(t);
 #pragma omp master
         ts.first = PhaseTimers::Clock::now();
         forces_and_finish(t, nt, lo, hi, time + integrator.dt, ts);
@@ -147,7 +153,7 @@ class Simulation {
 #pragma omp parallel num_threads(nt)
     {
       const int t = omp_get_thread_num();
-      const auto [lo, hi] = thread_block(p.size(), nt, t);
+      const auto [lo, hi] = nl_.block(t);
       forces_in_region(t, nt, lo, hi, time, ts);
     }
   }
@@ -161,7 +167,7 @@ class Simulation {
   std::pair<std::size_t, double> bare_kernel(int passes = 20) const {
     std::vector<std::uint32_t> ci, cj;
     for (int t = 0; t < nl_.threads(); ++t) {
-      const auto [lo, hi] = thread_block(p.size(), nl_.threads(), t);
+      const auto [lo, hi] = nl_.row_block(t);
       for (std::size_t i = lo; i < hi; ++i)
         for (std::uint32_t k = nl_.begin(i); k < nl_.end(i); ++k) {
           const std::uint32_t j = nl_.col(t)[k];
@@ -283,10 +289,18 @@ class Simulation {
             sk.gt[i].setZero();
           }
     }
-    if constexpr (HasPairBatch<Law, Dim>::value)
-      pairs_batched(t, lo, hi, sk);
-    else
-      pairs_scalar(t, lo, hi, sk);
+    if constexpr (HasPairBatch<Law, Dim>::value) {
+      PairBatch<Dim>& b = batch_[t];
+      b.n = 0;
+      nl_.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
+        pairs_batched(b, col, a, e, sk);
+      });
+      if (b.n > 0) flush(b, sk);
+    } else {
+      nl_.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
+        pairs_scalar(col, a, e, sk);
+      });
+    }
     if (nt > 1) {
 #pragma omp barrier
       // Add the other threads' ghost entries for this block, in thread order.
@@ -309,9 +323,9 @@ class Simulation {
     ts.walls_done = PhaseTimers::Clock::now();
   }
 
-  // The pair loop, one contact at a time: i's own sums stay in registers.
-  void pairs_scalar(int t, std::size_t lo, std::size_t hi, const Sinks& sk) {
-    const std::uint32_t* col = nl_.col(t);
+  // The pair loop over rows [lo, hi) (held in col), one contact at a time:
+  // i's own sums stay in registers.
+  void pairs_scalar(const std::uint32_t* col, std::size_t lo, std::size_t hi, const Sinks& sk) {
     for (std::size_t i = lo; i < hi; ++i) {
       const V xi = p.x[i], vi = p.v[i];
       const A wi = p.w[i];
@@ -337,32 +351,34 @@ class Simulation {
     }
   }
 
-  // The pair loop for a law with a batch kernel (contact/pair_batch.hpp): the
-  // contacts in range are gathered into the thread's batch, evaluated
-  // together, and added to both particles in the order they were found.
-  void pairs_batched(int t, std::size_t lo, std::size_t hi, const Sinks& sk) {
-    PairBatch<Dim>& b = batch_[t];
+  // Evaluates the contacts gathered in batch b and adds them to both
+  // particles in the order they were found.
+  void flush(PairBatch<Dim>& b, const Sinks& sk) {
     constexpr int kA = PairBatch<Dim>::kAng;
-    const auto flush = [&] {
-      law.pair_force_batch(b);
-      for (int q = 0; q < b.n; ++q) {
-        const std::uint32_t i = b.i[q], j = b.j[q];
-        V& fj = sk.force(j);
-        A& tj = sk.torque(j);
-        for (int a = 0; a < Dim; ++a) {
-          sk.f[i][a] += b.f[a][q];
-          fj[a] -= b.f[a][q];
-        }
-        for (int a = 0; a < kA; ++a) {
-          sk.t[i][a] += b.ti[a][q];
-          tj[a] += b.tj[a][q];
-        }
+    law.pair_force_batch(b);
+    for (int q = 0; q < b.n; ++q) {
+      const std::uint32_t i = b.i[q], j = b.j[q];
+      V& fj = sk.force(j);
+      A& tj = sk.torque(j);
+      for (int a = 0; a < Dim; ++a) {
+        sk.f[i][a] += b.f[a][q];
+        fj[a] -= b.f[a][q];
       }
-      b.n = 0;
-    };
+      for (int a = 0; a < kA; ++a) {
+        sk.t[i][a] += b.ti[a][q];
+        tj[a] += b.tj[a][q];
+      }
+    }
     b.n = 0;
+  }
+
+  // The pair loop over rows [lo, hi) (held in col) for a law with a batch
+  // kernel (contact/pair_batch.hpp): the contacts in range are gathered into
+  // batch b and evaluated together (flush); the caller flushes what is left.
+  void pairs_batched(PairBatch<Dim>& b, const std::uint32_t* col, std::size_t lo, std::size_t hi,
+                     const Sinks& sk) {
+    constexpr int kA = PairBatch<Dim>::kAng;
     constexpr std::uint32_t kSize = PairBatch<Dim>::kSize;
-    const std::uint32_t* col = nl_.col(t);
     for (std::size_t i = lo; i < hi; ++i) {
       const V xi = p.x[i], vi = p.v[i];
       const A wi = p.w[i];
@@ -371,7 +387,7 @@ class Simulation {
       // The row in pieces that fit the batch.
       for (std::uint32_t k0 = nl_.begin(i), ke = nl_.end(i); k0 < ke;) {
         const std::uint32_t k1 = std::min(ke, k0 + kSize);
-        if (b.n + (k1 - k0) > kSize) flush();
+        if (b.n + (k1 - k0) > kSize) flush(b, sk);
         const int q0 = b.n;
         // The range test, without a branch: about half the listed pairs are
         // in contact, so a branch on it would mispredict half the time. Every
@@ -410,7 +426,6 @@ class Simulation {
         k0 = k1;
       }
     }
-    if (b.n > 0) flush();
   }
 
   static typename Integrator::DriftStats combine(const std::vector<typename Integrator::DriftStats>& per) {
