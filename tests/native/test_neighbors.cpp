@@ -143,7 +143,7 @@ TEST(Neighbors, TwoThreadBlocksBalanceWork) {
   for (int t = 0; t < 2; ++t) {
     const auto [rlo, rhi] = nl.row_block(t);
     for (std::size_t i = rlo; i < rhi; ++i) {
-      work[i] = NeighborList<3>::kParticleWeight;
+      work[i] = FreeSim::kParticleWeight;
       for (std::uint32_t k = nl.begin(i); k < nl.end(i); ++k) {
         const std::uint32_t j = nl.col(t)[k];
         const double rc = Law3::range(p.d[i], p.d[j]);

@@ -15,6 +15,9 @@ struct EndCaps {
   double omega = 0.5;
   double d_wall = 1.0;
   WallLever lever;  // see wall_contact.hpp
+  // Cost per particle in listed pairs (for the threads' blocks,
+  // neighbor/neighbor_list.hpp): two distance tests, most particles far.
+  static constexpr unsigned kWeight = 1;
 
   // The time of the positions (the wall interface, engine/simulation.hpp) is not
   // needed: the caps turn in their own planes, so their surfaces never move.

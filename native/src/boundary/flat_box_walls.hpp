@@ -40,6 +40,9 @@ struct FlatBoxWalls {
   double wall_inv_mass = 0.0;  // 1/m_w; 0: infinitely heavy
   double side_top = 150.0;     // y_top: the side walls' top centre above the floor surface, at rest
   ShakerMotion<2> shaker;      // y_box(t); its anchors are unused (no wall particles)
+  // Cost per particle in listed pairs (for the threads' blocks,
+  // neighbor/neighbor_list.hpp): three distance tests, a contact for few.
+  static constexpr unsigned kWeight = 2;
 
   // t: the time of the positions (engine/simulation.hpp).
   template <class Law>

@@ -79,8 +79,7 @@ class Simulation {
     {
       const int t = omp_get_thread_num();
       {
-        // The drift costs the same for every particle: equal counts.
-        const auto [lo, hi] = nl_.row_block(t);
+        const auto [lo, hi] = nl_.block(t);
         stats_[t] = integrator.first_half(p, box, xref, lo, hi, time + integrator.dt);
       }
 #pragma omp barrier
@@ -141,8 +140,13 @@ class Simulation {
   // rebuild inside a step, after the drift), so the reorder skips them.
   void rebuild(bool forces = true) {
     nl_.build(p, box, max_range_, skin, [](double a, double b) { return Law::range(a, b); }, exclude_species,
-              forces);
+              forces, kParticleWeight);
   }
+
+  // A particle's work in a step besides its pairs, in listed pairs (the
+  // threads' blocks balance it, neighbor/neighbor_list.hpp): its ghost sums,
+  // its integration and the walls' checks, as each declares.
+  static constexpr std::uint32_t kParticleWeight = 1 + Integrator::kWeight + (0 + ... + Walls::kWeight);
 
   // Forces at the current state (no integration); used at start-up.
   void compute_forces() {

@@ -33,6 +33,9 @@ struct Gear5 {
   double dt = 5e-5;
   V gravity = V::Zero();
   Motion motion{};
+  // Cost per particle and step (predictor and corrector) in listed pairs,
+  // for the threads' blocks (neighbor/neighbor_list.hpp): 20 ns in the box.
+  static constexpr unsigned kWeight = 10;
   double c0 = kC0;  // 3/16 for position-only forces (tests of the design order)
 
   // Aux columns: V: r2, r3, r4, r5; A: phi0, phi2, phi3, phi4, phi5. Call after

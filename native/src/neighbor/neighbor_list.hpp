@@ -26,27 +26,30 @@ class NeighborList {
   static constexpr std::size_t kChunk = 64;
   // The work of a particle's forces in units of one listed pair that is not
   // in contact (a distance test), for balancing the threads' blocks: a pair
-  // in contact costs about 9 more (the contact law), and the particle itself
-  // about 3 (its ghost sums, walls and closing kick: 1 in the box, whose
-  // walls are particles, up to 10 in the drum, where every particle meets
-  // the curved wall). Measured with per-thread timers in the shaken box (P-H
-  // law, scalar loop: 1.9 ns a listed pair, 17.5 ns a contact, 2 ns the kick)
-  // and drum #A (21 ns walls and kick a particle).
-  static constexpr std::uint32_t kContactWeight = 9, kParticleWeight = 3;
+  // in contact costs about 9 more (the contact law; measured with per-thread
+  // timers in the shaken box, P-H law: 1.9 ns a listed pair, 17.5 ns a
+  // contact). The particle's own share (its integration, walls and ghost
+  // sums) comes from the caller: build(particle_weight).
+  static constexpr std::uint32_t kContactWeight = 9;
 
   // Sorts the store by cell (reorder), then lists pairs. RangeFn(d_i, d_j) is
-  // the contact law's interaction range; a template, so it inlines. Thread t
+  // the contact law's interaction range; a template, so it inlines.
+  // particle_weight: a particle's work besides its pairs (above). Thread t
   // lists the rows of row_block(t) (equal particle counts) into its own
   // column array, so nothing is copied between threads. Then the store is cut
   // into the blocks the threads own for the step, block(t), of equal expected
   // work (balance()): in the shaken box the packed bottom has 1.75 times the
   // contacts of the fluidised top for the same number of particles, and equal
   // counts left one thread waiting a third of the pair loop for the other.
+  // Every phase of the step uses block(t), the drift too, so a particle's
+  // columns stay in one core's cache (a drift on equal counts moved the
+  // columns of the particles between the two cuts across cores every step,
+  // and made Gear's stages 1.5 times dearer per particle there).
   // forces = false: the caller recomputes f and tq before reading them, so
   // the reorder leaves them as they are.
   template <class RangeFn>
   void build(ParticleStore<Dim>& p, const Box<Dim>& box, double max_range, double skin, RangeFn range,
-             int exclude_species = -1, bool forces = true) {
+             int exclude_species = -1, bool forces = true, std::uint32_t particle_weight = 1) {
     skin_ = skin;
     const std::size_t n = p.size();
     nt_ = omp_get_max_threads();
@@ -142,7 +145,7 @@ class NeighborList {
         }
         row_end_[i] = static_cast<std::uint32_t>(n_out);
         x_ref_[i] = x[i];
-        weight_[i] = row_end_[i] - row_begin_[i] + kContactWeight * contacts + kParticleWeight;
+        weight_[i] = row_end_[i] - row_begin_[i] + kContactWeight * contacts + particle_weight;
         work += weight_[i];
       }
       out.resize(n_out);
