@@ -155,7 +155,7 @@ class NeighborList {
       balance(n);
       // Which chunks outside its block thread t's rows write to (one thread
       // owns every particle and writes no ghosts).
-      const auto [blo, bhi] = block(t);
+      const std::size_t blo = bounds_[t], bhi = bounds_[t + 1];  // block(t)
       auto& mark = touched_[t];
       mark.assign(n_chunks, 0);
       if (nt_ > 1)
