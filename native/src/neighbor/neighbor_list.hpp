@@ -159,11 +159,9 @@ class NeighborList {
       auto& mark = touched_[t];
       mark.assign(n_chunks, 0);
       if (nt_ > 1)
-        for_rows(t, [&](std::size_t i, const std::uint32_t* c) {
-          for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k) {
-            const std::uint32_t j = c[k];
-            mark[j / kChunk] |= static_cast<std::uint8_t>((j < blo) | (j >= bhi));
-          }
+        for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* c) {
+          for (std::uint32_t k = row_begin_[a], ke = row_end_[e - 1]; k < ke; ++k)
+            mark[c[k] / kChunk] |= static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
         });
     }
     ++builds_;
@@ -177,16 +175,9 @@ class NeighborList {
   // The particles thread t owns in a step: it integrates them, evaluates their
   // rows and sums their forces.
   std::pair<std::size_t, std::size_t> block(int t) const { return {bounds_[t], bounds_[t + 1]}; }
-  // f(i, col) for each particle i of block(t) in order, col the column array
-  // that holds its row.
-  template <class F>
-  void for_rows(int t, F&& f) const {
-    for_row_segments(t, [&](std::size_t a, std::size_t b, const std::uint32_t* c) {
-      for (std::size_t i = a; i < b; ++i) f(i, c);
-    });
-  }
   // f(a, b, col) for the pieces [a, b) of block(t) listed by one thread, in
-  // order: a block spans at most a few row blocks.
+  // order: a block spans at most a few row blocks. The rows of a piece are
+  // contiguous in col: col[begin(a) .. end(b - 1)).
   template <class F>
   void for_row_segments(int t, F&& f) const {
     const auto [lo, hi] = block(t);
