@@ -38,6 +38,7 @@ class Case:
     label: str          # what runs: law, integrator
     workers: int        # threads (native) or MPI ranks (LAMMPS)
     sets: list = field(default_factory=list)
+    copies: int = 1     # runs started at once; the rate is their sum (the machine's ceiling, below)
     rates: list = field(default_factory=list)
     builds_per_step: list = field(default_factory=list)  # native: neighbour-list builds per timed step
     particles: int = 0
@@ -67,6 +68,8 @@ class Case:
     def measure(self, timed: float, settle: float) -> float:
         cmd = self.command(timed, settle)
         env = dict(os.environ, PYTHONPATH=str(ROOT))
+        if self.copies > 1:
+            return self.measure_copies(cmd, env)
         p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
         if p.returncode != 0:
             raise RuntimeError(f"bench case {self.key} failed ({' '.join(cmd)}):\n{p.stderr.strip()}")
@@ -89,9 +92,31 @@ class Case:
         self.rates.append(rate)
         return rate
 
+    def measure_copies(self, cmd, env) -> float:
+        """`copies` identical native runs started together, each on its own
+        core; the rate is the sum of theirs. With one worker each, nothing is
+        shared between them but the machine (caches, memory, the host), so the
+        sum over one run alone is the most any code with that many workers can
+        gain here."""
+        if self.engine != "native":
+            raise RuntimeError(f"bench case {self.key}: copies are for the native engine only")
+        procs = [subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                 for _ in range(self.copies)]
+        rate = 0.0
+        for p in procs:
+            out, err = p.communicate()
+            if p.returncode != 0:
+                raise RuntimeError(f"bench case {self.key} failed ({' '.join(cmd)}):\n{err.strip()}")
+            row = json.loads(out)[0]
+            rate += float(row["particle_steps_per_second"])
+            self.particles = int(row["particles"])
+        self.rates.append(rate)
+        return rate
+
     def summary(self) -> dict:
         return {"key": self.key, "scene": Path(self.scene).stem, "engine": self.engine, "label": self.label,
-                "workers": self.workers, "particles": self.particles, "rounds": len(self.rates),
+                "workers": self.workers, "copies": self.copies, "particles": self.particles,
+                "rounds": len(self.rates),
                 "median": statistics.median(self.rates), "min": min(self.rates), "max": max(self.rates),
                 "peak_rss_bytes": self.rss_per_particle * self.particles if self.rss_per_particle else None,
                 "builds_per_step": statistics.median(self.builds_per_step) if self.builds_per_step else None}
@@ -112,6 +137,15 @@ def default_cases(threads=(1, 2), lammps_ranks=(1, 2)) -> list[Case]:
         cases.append(Case(f"box-native-gear-{t}t", box, "native", "Poeschel-Herrmann law, Gear 5th order", t,
                           ["integrator.kind=gear"]))
     cases.append(Case("box-lammps-1r", box, "lammps", "gran/hooke, velocity Verlet", 1))
+    if max(threads) > 1:
+        # The machine's own ceiling for the thread ratios: as many 1-thread
+        # runs at once as the most threads, their rates summed.
+        m = max(threads)
+        cases.append(Case(f"drum-native-rapaport-1t-x{m}", drum, "native",
+                          f"Rapaport law, leapfrog: {m} 1-thread runs at once, summed", 1, copies=m))
+        cases.append(Case(f"box-native-verlet-1t-x{m}", box, "native",
+                          f"Poeschel-Herrmann law, velocity Verlet: {m} 1-thread runs at once, summed", 1,
+                          ["integrator.kind=verlet"], copies=m))
     return cases
 
 
@@ -217,6 +251,12 @@ RATIOS = [  # (numerator, denominator, what it says)
     ("box-native-gear-1t", "box-lammps-1r", "box: native Gear / LAMMPS serial"),
     ("box-native-verlet-2t", "box-native-verlet-1t", "box: native Verlet 2 threads / 1 thread"),
     ("box-native-gear-2t", "box-native-gear-1t", "box: native Gear 2 threads / 1 thread"),
+    ("drum-native-rapaport-1t-x2", "drum-native-rapaport-1t",
+     "drum: two 1-thread runs at once / one alone (this machine's ceiling for 2 workers)"),
+    ("drum-native-rapaport-2t", "drum-native-rapaport-1t-x2", "drum: native 2 threads / that ceiling"),
+    ("box-native-verlet-1t-x2", "box-native-verlet-1t",
+     "box: two 1-thread runs at once / one alone (this machine's ceiling for 2 workers)"),
+    ("box-native-verlet-2t", "box-native-verlet-1t-x2", "box: native Verlet 2 threads / that ceiling"),
     ("drum-native-viscel-1t", "drum-yade-1t", "drum, same law: native 1 thread / YADE 1 thread"),
     ("drum-native-viscel-2t", "drum-yade-2t", "drum, same law: native 2 threads / YADE 2 threads"),
     ("drum-yade-2t", "drum-yade-1t", "drum: YADE 2 threads / 1 thread"),

@@ -175,3 +175,31 @@ def test_bench_counts_list_builds_and_a_wider_skin_builds_less_often():
     narrow, wide = sweep["drum"]
     assert (narrow["skin"], wide["skin"]) == (0.2, 0.6)
     assert wide["builds_per_step"] < 0.7 * narrow["builds_per_step"], sweep
+
+
+def test_bench_ceiling_runs_its_copies_at_once_and_sums_them(tmp_path, monkeypatch):
+    """compare bench's ceiling case (two 1-thread runs at once, the machine's
+    limit for the thread ratios) must start its copies together, not one after
+    the other, and report the sum of their rates. A stand-in engine logs when
+    each copy runs and prints a fixed rate."""
+    from compare.bench import Case
+    log = tmp_path / "spans.txt"
+    fake = tmp_path / "granular"
+    fake.write_text(f"""#!/usr/bin/python3
+import json, time
+t0 = time.time()
+time.sleep(1.0)
+with open({str(log)!r}, "a") as f:
+    f.write(f"{{t0}} {{time.time()}}\\n")
+print(json.dumps([{{"particle_steps_per_second": 1.5e6, "particles": 4664}}]))
+""")
+    fake.chmod(0o755)
+    monkeypatch.setenv("GRANULAR_BIN", str(fake))
+    case = Case("drum-native-rapaport-1t-x2", "scenes/drum/A.toml", "native", "ceiling", 1, copies=2)
+    rate = case.measure(0.1, 0.1)
+    assert rate == pytest.approx(3.0e6), rate
+    spans = sorted(tuple(map(float, line.split())) for line in log.read_text().splitlines())
+    assert len(spans) == 2
+    (a0, a1), (b0, b1) = spans
+    assert b0 < a1, f"the copies ran one after the other: {spans}"
+    assert case.summary()["copies"] == 2 and case.particles == 4664
