@@ -39,6 +39,7 @@ class Case:
     workers: int        # threads (native) or MPI ranks (LAMMPS)
     sets: list = field(default_factory=list)
     copies: int = 1     # runs started at once; the rate is their sum (the machine's ceiling, below)
+    timed_scale: float = 1.0  # times the round's timed stretch (small scenes time longer)
     rates: list = field(default_factory=list)
     builds_per_step: list = field(default_factory=list)  # native: neighbour-list builds per timed step
     particles: int = 0
@@ -162,13 +163,16 @@ def yade_cases(threads=(1, 2)) -> list[Case]:
 
 
 # Drum lengths giving about 1e3, 1e4 and 1e5 particles at drum #A's filling
-# (36.4 particles per unit length).
-SCALING_LENGTHS = (28, 280, 2800)
+# (36.4 particles per unit length), each with the rotations it times per
+# round's rotation: at least 10^7 particle-steps (over a second) per run, so
+# that the smallest drum is not timed over a fifth of a second.
+SCALING_LENGTHS = {28: 10.0, 280: 2.0, 2800: 1.0}
 
 
 def scaling_cases() -> list[Case]:
     return [Case(f"scale-drum-native-rapaport-L{L}", "scenes/drum/A.toml", "native",
-                 f"Rapaport law, leapfrog, drum length {L}", 1, [f"drum.length={L}"]) for L in SCALING_LENGTHS]
+                 f"Rapaport law, leapfrog, drum length {L}, {k:g}x the timed rotations", 1, [f"drum.length={L}"],
+                 timed_scale=k) for L, k in SCALING_LENGTHS.items()]
 
 
 def scaling(rows) -> dict | None:
@@ -272,7 +276,8 @@ def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=
     for r in range(rounds):
         for c in cases:
             drum = "drum" in c.scene
-            rate = c.measure(drum_rotations if drum else box_seconds, drum_settle if drum else box_settle)
+            rate = c.measure(c.timed_scale * (drum_rotations if drum else box_seconds),
+                             drum_settle if drum else box_settle)
             if progress:
                 print(f"round {r + 1}/{rounds}  {c.key:28s} {rate:10.3g} particle-steps/s", file=progress, flush=True)
     rows = [c.summary() for c in cases]
