@@ -142,9 +142,9 @@ def default_cases(threads=(1, 2), lammps_ranks=(1, 2)) -> list[Case]:
         # The machine's own ceiling for the thread ratios: as many 1-thread
         # runs at once as the most threads, their rates summed.
         m = max(threads)
-        cases.append(Case(f"drum-native-rapaport-1t-x{m}", drum, "native",
+        cases.append(Case(f"drum-native-rapaport-{m}x1t", drum, "native",
                           f"Rapaport law, leapfrog: {m} 1-thread runs at once, summed", 1, copies=m))
-        cases.append(Case(f"box-native-verlet-1t-x{m}", box, "native",
+        cases.append(Case(f"box-native-verlet-{m}x1t", box, "native",
                           f"Poeschel-Herrmann law, velocity Verlet: {m} 1-thread runs at once, summed", 1,
                           ["integrator.kind=verlet"], copies=m))
     return cases
@@ -255,12 +255,12 @@ RATIOS = [  # (numerator, denominator, what it says)
     ("box-native-gear-1t", "box-lammps-1r", "box: native Gear / LAMMPS serial"),
     ("box-native-verlet-2t", "box-native-verlet-1t", "box: native Verlet 2 threads / 1 thread"),
     ("box-native-gear-2t", "box-native-gear-1t", "box: native Gear 2 threads / 1 thread"),
-    ("drum-native-rapaport-1t-x2", "drum-native-rapaport-1t",
+    ("drum-native-rapaport-2x1t", "drum-native-rapaport-1t",
      "drum: two 1-thread runs at once / one alone (this machine's ceiling for 2 workers)"),
-    ("drum-native-rapaport-2t", "drum-native-rapaport-1t-x2", "drum: native 2 threads / that ceiling"),
-    ("box-native-verlet-1t-x2", "box-native-verlet-1t",
+    ("drum-native-rapaport-2t", "drum-native-rapaport-2x1t", "drum: native 2 threads / that ceiling"),
+    ("box-native-verlet-2x1t", "box-native-verlet-1t",
      "box: two 1-thread runs at once / one alone (this machine's ceiling for 2 workers)"),
-    ("box-native-verlet-2t", "box-native-verlet-1t-x2", "box: native Verlet 2 threads / that ceiling"),
+    ("box-native-verlet-2t", "box-native-verlet-2x1t", "box: native Verlet 2 threads / that ceiling"),
     ("drum-native-viscel-1t", "drum-yade-1t", "drum, same law: native 1 thread / YADE 1 thread"),
     ("drum-native-viscel-2t", "drum-yade-2t", "drum, same law: native 2 threads / YADE 2 threads"),
     ("drum-yade-2t", "drum-yade-1t", "drum: YADE 2 threads / 1 thread"),

@@ -195,7 +195,7 @@ print(json.dumps([{{"particle_steps_per_second": 1.5e6, "particles": 4664}}]))
 """)
     fake.chmod(0o755)
     monkeypatch.setenv("GRANULAR_BIN", str(fake))
-    case = Case("drum-native-rapaport-1t-x2", "scenes/drum/A.toml", "native", "ceiling", 1, copies=2)
+    case = Case("drum-native-rapaport-2x1t", "scenes/drum/A.toml", "native", "ceiling", 1, copies=2)
     rate = case.measure(0.1, 0.1)
     assert rate == pytest.approx(3.0e6), rate
     spans = sorted(tuple(map(float, line.split())) for line in log.read_text().splitlines())
