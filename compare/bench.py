@@ -103,9 +103,9 @@ class Case:
             raise RuntimeError(f"bench case {self.key}: copies are for the native engine only")
         procs = [subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
                  for _ in range(self.copies)]
+        results = [p.communicate() for p in procs]  # every copy finishes before any failure is raised
         rate = 0.0
-        for p in procs:
-            out, err = p.communicate()
+        for p, (out, err) in zip(procs, results):
             if p.returncode != 0:
                 raise RuntimeError(f"bench case {self.key} failed ({' '.join(cmd)}):\n{err.strip()}")
             row = json.loads(out)[0]
