@@ -292,6 +292,33 @@ def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=
             "skin": skin_sweep(rows)}
 
 
+def machine_probe(rounds=8, particles=8000) -> dict | None:
+    """`build/thread_probe`: two threads against two processes on a loop shaped
+    like the step with no physics in it (native/tools/thread_probe.cpp). Tells
+    what this machine gives two workers that must finish together, whatever the
+    program; None when the probe was not built."""
+    exe = os.environ.get("GRANULAR_BIN")
+    probe = (Path(exe).parent if exe else ROOT / "build") / "thread_probe"
+    if not probe.exists():
+        return None
+    steps = max(1000, int(1.6e8 / particles / 10))
+    p = subprocess.run([str(probe), "--rounds", str(rounds), "--particles", str(particles), "--steps", str(steps)],
+                       capture_output=True, text=True)
+    if p.returncode != 0:
+        raise RuntimeError(f"thread_probe failed:\n{p.stderr.strip()}")
+    return json.loads(p.stdout)
+
+
+def probe_line(probe) -> str:
+    s, rt = probe["speedup"], probe["round_trip_ns"]
+    return (f"This machine, on a loop with no physics ({probe['particles']} particles, `build/thread_probe`, "
+            f"{probe['rounds']} rounds): two processes at once {s['two_processes']:.2f} times one alone "
+            f"({s['two_processes_slower_one']:.2f} counting the slower one); two threads that never meet "
+            f"{s['two_threads_apart']:.2f}; two threads with a barrier per step "
+            f"{s['two_threads_one_barrier_per_step']:.2f}. Cache-line round trip between the threads "
+            f"{rt['median']:.0f} ns (median; {rt['min']:.0f} – {rt['max']:.0f}).")
+
+
 def markdown(result) -> str:
     lines = ["| case | engine | what runs | workers | particles | particle-steps/s (median) | min – max |",
              "|---|---|---|---|---|---|---|"]
@@ -315,6 +342,8 @@ def markdown(result) -> str:
                       f"{p['builds_per_step']:.3f} |" if p["builds_per_step"] is not None else
                       f"| {scene} | {p['skin']:g} | {p['median']:.3g} | {p['min']:.3g} – {p['max']:.3g} | |"
                       for p in pts]
+    if result.get("probe"):
+        lines += ["", probe_line(result["probe"])]
     s = result["settings"]
     lines += ["", f"{s['rounds']} interleaved rounds; drum: {s['drum_settle_rotations']} rotations settled, "
               f"{s['drum_rotations']} timed; box: {s['box_settle_seconds']} s of shaking settled, "
@@ -332,6 +361,7 @@ def main(args) -> int:
             return 2
     try:
         result = run_bench(cases, rounds=args.rounds, drum_rotations=args.rotations, box_seconds=args.seconds)
+        result["probe"] = machine_probe() if any(c.engine == "native" and c.workers > 1 for c in cases) else None
     except RuntimeError as exc:
         print(f"bench: error: {exc}", file=sys.stderr)
         return 2

@@ -203,3 +203,30 @@ print(json.dumps([{{"particle_steps_per_second": 1.5e6, "particles": 4664}}]))
     (a0, a1), (b0, b1) = spans
     assert b0 < a1, f"the copies ran one after the other: {spans}"
     assert case.summary()["copies"] == 2 and case.particles == 4664
+
+
+def test_thread_probe_reports_its_loop_and_compare_bench_quotes_it(monkeypatch):
+    """build/thread_probe (two threads against two processes on a loop with no
+    physics): every time is positive, each speed-up is twice the one-thread
+    half's time over that configuration's time, each round's slower process is
+    the slower of that round's two, and compare bench's line quotes the
+    figures."""
+    from compare.bench import machine_probe, probe_line
+    if not (BIN.parent / "thread_probe").exists():
+        pytest.skip("thread_probe not built")
+    monkeypatch.setenv("GRANULAR_BIN", str(BIN))
+    probe = machine_probe(rounds=3, particles=2000)
+    us, s = probe["us_per_step"], probe["speedup"]
+    assert probe["particles"] == 2000 and probe["rounds"] == 3
+    assert all(v > 0 for v in us.values()), us
+    assert len(probe["rounds_us"]["processes"]) == 6  # two processes a round
+    for key, time_key in (("two_processes", "two_processes_half_each"),
+                          ("two_processes_slower_one", "two_processes_slower_one"),
+                          ("two_threads_apart", "two_threads_apart"),
+                          ("two_threads_one_barrier_per_step", "two_threads_one_barrier_per_step")):
+        assert s[key] == pytest.approx(2 * us["one_thread_half_alone"] / us[time_key]), key
+    procs, slower = probe["rounds_us"]["processes"], probe["rounds_us"]["processes_slower"]
+    assert slower == [max(procs[2 * r], procs[2 * r + 1]) for r in range(3)], (procs, slower)
+    assert probe["round_trip_ns"]["min"] <= probe["round_trip_ns"]["median"] <= probe["round_trip_ns"]["max"]
+    line = probe_line(probe)
+    assert f"{s['two_threads_one_barrier_per_step']:.2f}" in line and f"{s['two_processes']:.2f}" in line

@@ -1,0 +1,169 @@
+// How much two threads of one process can gain on this machine, for a loop
+// shaped like the engine's step, with no physics in it (docs/speed_accuracy.md):
+//   thread_probe [--particles N] [--steps S] [--rounds R] > probe.json
+// The work is a stand-in for the integration: each of N particles updates 10
+// double columns per step. Measured, in interleaved rounds (medians):
+//   - one thread on N/2 particles, the process alone;
+//   - the same, as two processes at once (they share nothing but the machine:
+//     the ceiling `compare bench` also measures), each one's time and the
+//     slower one's (two threads finish when the slower one does);
+//   - two threads of one process, each on its own half of N, never meeting;
+//   - the same with one OpenMP barrier per step (the engine's step has two
+//     barriers and a fork and join);
+//   - the round trip of a cache line between the two threads.
+// Two threads "never meeting" share only the process: when they run slower
+// than two processes, the loss is the machine's, not any program's
+// synchronisation.
+#include <omp.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Microseconds per step of `threads` threads, each on its own share of n
+// particles; a barrier per step if `meet`.
+double stream(std::size_t n, long steps, int threads, bool meet) {
+  constexpr int kColumns = 10;
+  std::vector<std::vector<double>> col(kColumns, std::vector<double>(n, 1.0));
+  std::vector<double*> c(kColumns);
+  for (int k = 0; k < kColumns; ++k) c[k] = col[k].data();
+  const auto t0 = Clock::now();
+#pragma omp parallel num_threads(threads)
+  {
+    const int t = omp_get_thread_num();
+    const std::size_t lo = n * t / threads, hi = n * (t + 1) / threads;
+    for (long s = 0; s < steps; ++s) {
+      for (std::size_t i = lo; i < hi; ++i) {
+        const double a = c[0][i] * 0.5 + c[1][i];
+        c[2][i] += a * c[3][i];
+        c[4][i] = c[5][i] + c[2][i] * 1e-3;
+        c[6][i] += c[7][i] * c[8][i];
+        c[9][i] = a;
+      }
+      if (meet) {
+#pragma omp barrier
+      }
+    }
+  }
+  const double us = 1e6 * std::chrono::duration<double>(Clock::now() - t0).count() / static_cast<double>(steps);
+  volatile double sink = c[9][0];
+  (void)sink;
+  return us;
+}
+
+// Two processes at once, each one thread on m particles: each one's time.
+std::vector<double> two_processes(std::size_t m, long steps) {
+  int fd[2][2];
+  pid_t pid[2];
+  for (int k = 0; k < 2; ++k) {
+    if (pipe(fd[k]) != 0) throw std::runtime_error("thread_probe: pipe failed");
+    pid[k] = fork();
+    if (pid[k] < 0) throw std::runtime_error("thread_probe: fork failed");
+    if (pid[k] == 0) {
+      const double us = stream(m, steps, 1, false);
+      if (write(fd[k][1], &us, sizeof us) != sizeof us) _exit(1);
+      _exit(0);
+    }
+    close(fd[k][1]);
+  }
+  std::vector<double> out;
+  for (int k = 0; k < 2; ++k) {
+    double us = 0.0;
+    const bool ok = read(fd[k][0], &us, sizeof us) == sizeof us;
+    close(fd[k][0]);
+    int status = 0;
+    waitpid(pid[k], &status, 0);
+    if (!ok || status != 0) throw std::runtime_error("thread_probe: a probe process failed");
+    out.push_back(us);
+  }
+  return out;
+}
+
+// Nanoseconds for a cache line to go to the other thread and back.
+double round_trip_ns(long trips = 200000) {
+  alignas(64) std::atomic<long> flag{0};
+  std::thread other([&] {
+    for (long i = 0; i < trips; ++i) {
+      while (flag.load(std::memory_order_acquire) != 2 * i + 1) {
+      }
+      flag.store(2 * i + 2, std::memory_order_release);
+    }
+  });
+  const auto t0 = Clock::now();
+  for (long i = 0; i < trips; ++i) {
+    flag.store(2 * i + 1, std::memory_order_release);
+    while (flag.load(std::memory_order_acquire) != 2 * i + 2) {
+    }
+  }
+  other.join();
+  return 1e9 * std::chrono::duration<double>(Clock::now() - t0).count() / static_cast<double>(trips);
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t k = v.size() / 2;
+  return v.size() % 2 ? v[k] : 0.5 * (v[k - 1] + v[k]);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"two threads against two processes, on a loop shaped like the step"};
+  std::size_t n = 8000;
+  long steps = 20000;
+  int rounds = 8;
+  app.add_option("--particles", n, "particles of the whole loop (each thread or process gets half)")
+      ->check(CLI::Range(std::size_t{2}, std::size_t{1} << 28));
+  app.add_option("--steps", steps, "steps per measurement")->check(CLI::PositiveNumber);
+  app.add_option("--rounds", rounds, "interleaved rounds (medians reported)")->check(CLI::PositiveNumber);
+  CLI11_PARSE(app, argc, argv);
+  try {
+    std::vector<double> alone, procs, slower, apart, meeting, trip;
+    for (int r = 0; r < rounds; ++r) {
+      alone.push_back(stream(n / 2, steps, 1, false));
+      const auto both = two_processes(n / 2, steps);
+      procs.insert(procs.end(), both.begin(), both.end());
+      slower.push_back(std::max(both[0], both[1]));
+      apart.push_back(stream(n, steps, 2, false));
+      meeting.push_back(stream(n, steps, 2, true));
+      trip.push_back(round_trip_ns());
+    }
+    const double a = median(alone);
+    nlohmann::json j;
+    j["particles"] = n;
+    j["steps"] = steps;
+    j["rounds"] = rounds;
+    j["us_per_step"] = {{"one_thread_half_alone", a},
+                        {"two_processes_half_each", median(procs)},
+                        {"two_processes_slower_one", median(slower)},
+                        {"two_threads_apart", median(apart)},
+                        {"two_threads_one_barrier_per_step", median(meeting)}};
+    // Speed-ups over one thread doing all the work (twice the half's time).
+    j["speedup"] = {{"two_processes", 2.0 * a / median(procs)},
+                    {"two_processes_slower_one", 2.0 * a / median(slower)},
+                    {"two_threads_apart", 2.0 * a / median(apart)},
+                    {"two_threads_one_barrier_per_step", 2.0 * a / median(meeting)}};
+    j["round_trip_ns"] = {{"median", median(trip)},
+                          {"min", *std::min_element(trip.begin(), trip.end())},
+                          {"max", *std::max_element(trip.begin(), trip.end())}};
+    j["rounds_us"] = {{"alone", alone}, {"processes", procs}, {"processes_slower", slower},
+                      {"apart", apart}, {"meeting", meeting}, {"round_trip_ns", trip}};
+    std::cout << j.dump(2) << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
