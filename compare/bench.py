@@ -30,6 +30,12 @@ ROOT = Path(__file__).resolve().parent.parent
 PY = "/usr/bin/python3"
 
 
+def native_bin() -> Path:
+    """The native engine: $GRANULAR_BIN, else the build's. Its tools
+    (thread_probe) sit beside it."""
+    return Path(os.environ.get("GRANULAR_BIN") or ROOT / "build" / "granular")
+
+
 @dataclass
 class Case:
     key: str            # short name in the table
@@ -50,7 +56,7 @@ class Case:
         drum = "drum" in self.scene
         sets = sum((["--set", kv] for kv in self.sets), [])
         if self.engine == "native":
-            exe = os.environ.get("GRANULAR_BIN") or str(ROOT / "build" / "granular")
+            exe = str(native_bin())
             span = ["--rotations" if drum else "--seconds", repr(timed)]
             return [exe, "bench", self.scene, "--threads", str(self.workers), "--repeat", "1",
                     "--settle", repr(settle), "--json", *span, *sets]
@@ -97,8 +103,9 @@ class Case:
         """`copies` identical native runs started together, each on its own
         core; the rate is the sum of theirs. With one worker each, nothing is
         shared between them but the machine (caches, memory, the host), so the
-        sum over one run alone is the most any code with that many workers can
-        gain here."""
+        sum over one run alone is the most that many workers can gain here when
+        they need not finish together (machine_probe: what they get when they
+        must)."""
         if self.engine != "native":
             raise RuntimeError(f"bench case {self.key}: copies are for the native engine only")
         procs = [subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -297,8 +304,7 @@ def machine_probe(rounds=8, particles=8000) -> dict | None:
     like the step with no physics in it (native/tools/thread_probe.cpp). Tells
     what this machine gives two workers that must finish together, whatever the
     program; None when the probe was not built."""
-    exe = os.environ.get("GRANULAR_BIN")
-    probe = (Path(exe).parent if exe else ROOT / "build") / "thread_probe"
+    probe = native_bin().parent / "thread_probe"
     if not probe.exists():
         return None
     steps = max(1000, int(1.6e8 / particles / 10))
