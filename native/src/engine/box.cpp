@@ -163,20 +163,16 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
                                {{"time", 1}, {"cycle", 1}, {"box_y", 1}, {"big_position", 2}, {"big_velocity", 2}});
   if (out) census_h = init_census(*out, decltype(sim.law)::kSpecies);
   long snap_k = 0, trace_k = 0;
-  // Whether a frame or a trace row is due after step j, at time t.
-  auto snap_due = [&](long j, double t) {
-    return j > settle_steps && s.cycle(t) >= (snap_k + 1) * s.snapshot_every_cycles;
-  };
-  auto trace_due = [&](long j, double t) { return j > settle_steps && s.cycle(t) * s.trace_per_cycle >= trace_k + 1; };
   auto observe = [&](bool force_frame) {
     ScopedPhase ph(sim.timers, Phase::observe);
     const double c = s.cycle(sim.time);
+    const bool shaking = sim.step_count > settle_steps;
     bool snap = force_frame, trace = false;
-    if (snap_due(sim.step_count, sim.time)) {
+    if (shaking && c >= (snap_k + 1) * s.snapshot_every_cycles) {
       snap = true;
       snap_k = static_cast<long>(std::floor(c / s.snapshot_every_cycles));
     }
-    if (trace_due(sim.step_count, sim.time)) {
+    if (shaking && c * s.trace_per_cycle >= trace_k + 1) {
       trace = true;
       trace_k = static_cast<long>(std::floor(c * s.trace_per_cycle));
     }
@@ -198,21 +194,15 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
   const auto t0 = std::chrono::steady_clock::now();
   auto last = t0;
   const double n = static_cast<double>(sim.p.size());
-  // Stretches of steps, each ending where the loop has something to do: a
-  // health check, an output, the end of settling, a checkpoint poll, the end.
-  auto output_due = [&](long j, double t) { return j == settle_steps || snap_due(j, t) || trace_due(j, t); };
   for (long k = start + 1; k <= total; ++k) {
-    const long limit = std::min({total, Checkpointer::round_up(k, health.every), checkpoints.next_poll(k)});
-    const long e = stretch_end(k, limit, sim.time, sim.integrator.dt, output_due);
-    sim.advance(e - k + 1);
-    k = e;
+    sim.step();
     if (k % health.every == 0 || k == total) {
       check_health(sim, health);
       check_smooth_walls(sim, health);
     }
     observe(k == settle_steps || k == total);
     checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total);
-    if (progress) {
+    if (progress && (k % 500 == 0 || k == total)) {
       const auto now = std::chrono::steady_clock::now();
       if (now - last > std::chrono::milliseconds(500) || k == total) {
         last = now;
@@ -285,7 +275,7 @@ RunReport bench_box(const BoxScene& s, double settle, double seconds) {
         v.timers.reset();
         const long builds0 = v.neighbors().builds();
         const auto t0 = std::chrono::steady_clock::now();
-        v.advance(steps);
+        for (long k = 0; k < steps; ++k) v.step();
         RunReport r;
         r.steps = steps;
         r.particles = static_cast<long>(v.p.size());

@@ -167,21 +167,13 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
   const auto t0 = std::chrono::steady_clock::now();
   auto last_print = t0;
   const long n = static_cast<long>(sim.p.size());
-  // Stretches of steps, each ending where the loop has something to do: a
-  // health check, an output, a checkpoint poll, the end.
-  auto output_due = [&](long j, double) {
-    return s.steps_per(prof_k * s.profile_every) <= j || s.steps_per(snap_k * s.snapshot_every) <= j;
-  };
   for (long k = start + 1; k <= total; ++k) {
-    const long limit = std::min({total, Checkpointer::round_up(k, health.every), checkpoints.next_poll(k)});
-    const long e = stretch_end(k, limit, sim.time, sim.integrator.dt, output_due);
-    sim.advance(e - k + 1);
-    k = e;
+    sim.step();
     const bool fin = k == total;
     if (k % health.every == 0 || fin) check_health(sim, health);
     observe(fin);
     checkpoints.after_step(sim, out, {snap_k, prof_k}, fin);
-    if (progress) {
+    if (progress && (k % 200 == 0 || fin)) {
       const auto now = std::chrono::steady_clock::now();
       if (now - last_print > std::chrono::milliseconds(500) || fin) {
         last_print = now;

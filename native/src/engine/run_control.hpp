@@ -1,9 +1,7 @@
 // Checkpoints, interruption and resumption of a run, shared by the drum and
-// the shaken box. The run loop advances the simulation in stretches of steps
-// (stretch_end) and calls Checkpointer::after_step after each; it costs one
-// clock read and one flag test unless a checkpoint is due.
+// the shaken box. The run loop calls Checkpointer::after_step once per step;
+// it costs one clock read and one flag test unless a checkpoint is due.
 #pragma once
-#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdint>
@@ -41,20 +39,6 @@ class Interrupted : public std::runtime_error {
 void install_stop_handlers();
 int stop_signal();  // 0 if no stop was requested
 
-// The last step of the stretch a run loop advances in one call
-// (Simulation::advance), from step `k` (time `time` before it): the first
-// step j in [k, limit] after which `due(j, t_j)` says the loop has something
-// to do, t_j being the time after step j summed as the steps sum it; else
-// `limit`.
-template <class Due>
-long stretch_end(long k, long limit, double time, double dt, Due due) {
-  for (long j = k; j < limit; ++j) {
-    time += dt;
-    if (due(j, time)) return j;
-  }
-  return limit;
-}
-
 // Before a run loop: the state and output counters from ctl.resume, or else
 // the run's first output. Returns the step the loop continues after.
 template <class Sim, class FirstOutput>
@@ -86,7 +70,7 @@ class Checkpointer {
       return;
     }
     bool due = final_step || sig != 0 || (ctl_.every_steps > 0 && sim.step_count % ctl_.every_steps == 0);
-    if (!due && ctl_.every_seconds > 0 && sim.step_count % kPoll == 0) {
+    if (!due && ctl_.every_seconds > 0 && (sim.step_count & 63) == 0) {
       const auto now = Clock::now();
       due = std::chrono::duration<double>(now - last_).count() >= ctl_.every_seconds;
     }
@@ -102,18 +86,6 @@ class Checkpointer {
   }
 
   long written() const { return written_; }
-
-  // Steps between polls of the stop signal and the clock: a stretch ends at
-  // each multiple of it (and of every_steps), so a stop request waits at
-  // most this many steps.
-  static constexpr long kPoll = 64;
-  // The next step at or after `step` at which after_step may act.
-  long next_poll(long step) const {
-    long next = round_up(step, kPoll);
-    if (ctl_.every_steps > 0) next = std::min(next, round_up(step, ctl_.every_steps));
-    return next;
-  }
-  static long round_up(long step, long period) { return (step + period - 1) / period * period; }
 
  private:
   using Clock = std::chrono::steady_clock;

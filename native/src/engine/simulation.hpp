@@ -63,95 +63,62 @@ class Simulation {
     integrator.start(p);
   }
 
-  // One step.
-  void step() { advance(1); }
-
-  // `steps` steps, bitwise what as many calls of step() give (the same sums
-  // in the same order), with one pass over the store per step instead of
-  // four. Each thread sweeps its block in order: the pairs of a piece of
-  // rows, then, for the piece's particles, the walls, stage 2 of this step
-  // and stage 1 of the next, while their columns are still in cache. That is
-  // safe because a row lists only particles after its own (cell_list.hpp):
-  // once its row is done no later row adds to a particle or reads it. The
-  // exceptions, particles that a periodic wrap's rows or another thread's
-  // rows reach, lead each block (NeighborList::late_end); they are finished
-  // after the sweep, once every thread's rows are done. The threads stay in
-  // one parallel region until the list must be rebuilt, and meet twice a
-  // step: when the rows are done, and when stage 1 is (the skin test needs
-  // every particle's move). Between calls the state is whole: positions,
-  // velocities and forces of one time.
-  void advance(long steps) {
-    if (steps <= 0) return;
+  // One step. In the common case (no neighbour-list rebuild) the whole step is
+  // one parallel region: every thread integrates, computes forces for and
+  // finishes its own block, meeting the others only at two barriers.
+  void step() {
     const int nt = omp_get_max_threads();
     if (nt != nl_.threads()) rebuild();  // the thread count changed since the last build
     prepare_buffers(nt);
     stats_.assign(nt, typename Integrator::DriftStats{});
-    const double dt = integrator.dt;
-    bool drifted = false;    // the store holds stage 1 of the next step
-    bool fresh_list = false;  // the list was built from the positions now
-    long done = 0;
-    while (done < steps) {
-      long done_here = 0;
-      bool rebuild_due = false;
-      typename Integrator::DriftStats verdict;
-      Durations dur;
-      const double t0 = time;
+    const auto& xref = nl_.reference_positions();
+    typename Integrator::DriftStats st;
+    bool finished = false;
+    Stamps ts;
+#pragma omp parallel num_threads(nt)
+    {
+      const int t = omp_get_thread_num();
+      {
+        const auto [lo, hi] = nl_.block(t);
+        stats_[t] = integrator.first_half(p, box, xref, lo, hi, time + integrator.dt);
+      }
+#pragma omp barrier
+      // Every thread reaches the same verdict from the same numbers.
+      const auto all = combine(stats_);
+      const bool go_on = stable(all) && all.disp_bound() <= skin;
+#pragma omp master
+      {
+        st = all;
+        finished = go_on;
+        ts.first = PhaseTimers::Clock::now();
+      }
+      if (go_on) {
+        const auto [lo, hi] = nl_.block(t);
+        forces_and_finish(t, nt, lo, hi, time + integrator.dt, ts);
+      }
+    }
+    timers.add(Phase::integrate, ts.first - ts.start);
+    if (!finished) {
+      check_stable(st);  // throws if unstable
+      {
+        ScopedPhase ph(timers, Phase::neighbor);
+        rebuild(false);
+      }
+      ts = Stamps{};
 #pragma omp parallel num_threads(nt)
       {
         const int t = omp_get_thread_num();
         const auto [lo, hi] = nl_.block(t);
-        double tm = t0;  // each thread keeps the clock as step() would: time += dt
-        Durations* d = t == 0 ? &dur : nullptr;
-        if (!drifted) {
-          auto mark = PhaseTimers::Clock::now();
-          stats_[t] = stage_one(lo, hi, tm + dt);
-          if (d) d->add(d->integrate, mark);
-          if (nt > 1) {
-#pragma omp barrier
-          }
-        }
-        bool check = !fresh_list;
-        for (long k = done; k < steps; ++k) {
-          if (check) {
-            // Every thread reaches the same verdict from the same numbers.
-            const auto all = combine(stats_);
-            if (!(stable(all) && all.disp_bound() <= skin)) {
 #pragma omp master
-              {
-                verdict = all;
-                rebuild_due = true;
-              }
-              break;
-            }
-          }
-          check = true;
-          const bool next = k + 1 < steps;  // go on to stage 1 of the next step
-          auto st = sweep(t, nt, lo, hi, tm + dt, true, next, d);
-          tm += dt;
-#pragma omp master
-          done_here = k - done + 1;
-          if (next) {
-            stats_[t] = st;
-            if (nt > 1) {
-#pragma omp barrier
-            }
-          }
-        }
-      }
-      time = t0;
-      for (long k = 0; k < done_here; ++k) time += dt;
-      step_count += done_here;
-      done += done_here;
-      dur.report(timers);
-      drifted = true;
-      fresh_list = false;
-      if (rebuild_due) {
-        check_stable(verdict);  // throws if unstable
-        ScopedPhase ph(timers, Phase::neighbor);
-        rebuild(false);  // forces are zero here (stage one cleared them): the reorder skips them
-        fresh_list = true;
+        ts.first = PhaseTimers::Clock::now();
+        forces_and_finish(t, nt, lo, hi, time + integrator.dt, ts);
       }
     }
+    timers.add(Phase::pairs, ts.pairs_done - ts.first);
+    timers.add(Phase::walls, ts.walls_done - ts.pairs_done);
+    timers.add(Phase::integrate, ts.end - ts.walls_done);
+    time += integrator.dt;
+    ++step_count;
   }
 
   // Restart from a checkpoint: the store already holds the saved state (in the
@@ -186,15 +153,12 @@ class Simulation {
     const int nt = omp_get_max_threads();
     if (nt != nl_.threads()) rebuild();
     prepare_buffers(nt);
+    Stamps ts;
 #pragma omp parallel num_threads(nt)
     {
       const int t = omp_get_thread_num();
       const auto [lo, hi] = nl_.block(t);
-      zero_forces(lo, hi);
-      if (nt > 1) {
-#pragma omp barrier
-      }
-      sweep(t, nt, lo, hi, time, false, false, nullptr);
+      forces_in_region(t, nt, lo, hi, time, ts);
     }
   }
 
@@ -288,68 +252,36 @@ class Simulation {
     A& torque(std::uint32_t j) const { return (j - lo < len ? t : gt)[j]; }
   };
 
-  // Wall-clock time of thread 0's phases in a sweep, added to the timers
-  // once the parallel region ends.
-  struct Durations {
-    using Clock = PhaseTimers::Clock;
-    Clock::duration integrate{}, pairs{}, walls{};
-    // Adds the time since `mark` to `to` and moves the mark to now.
-    void add(Clock::duration& to, Clock::time_point& mark) {
-      const auto now = Clock::now();
-      to += now - mark;
-      mark = now;
-    }
-    void report(PhaseTimers& t) const {
-      t.add(Phase::integrate, integrate);
-      t.add(Phase::pairs, pairs);
-      t.add(Phase::walls, walls);
-    }
+  struct Stamps {
+    PhaseTimers::Clock::time_point start = PhaseTimers::Clock::now(), first = start, pairs_done = start,
+                                   walls_done = start, end = start;
   };
 
-  // Rows per piece of a sweep: the piece's particles are finished while their
-  // columns (and the rows' partners a slab ahead) are still in L2.
-  static constexpr std::size_t kPiece = 256;
-
-  void zero_forces(std::size_t lo, std::size_t hi) {
-    std::fill(p.f.begin() + static_cast<std::ptrdiff_t>(lo), p.f.begin() + static_cast<std::ptrdiff_t>(hi), V::Zero());
-    std::fill(p.tq.begin() + static_cast<std::ptrdiff_t>(lo), p.tq.begin() + static_cast<std::ptrdiff_t>(hi),
-              A::Zero());
+  void forces_and_finish(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts) {
+    forces_in_region(t, nt, lo, hi, t_pos, ts);
+    integrator.second_half(p, box, lo, hi);
+#pragma omp master
+    ts.end = PhaseTimers::Clock::now();
   }
 
-  // Stage 1 on [lo, hi) (t_next: the time at the end of the step), then the
-  // forces cleared for the sweep that sums the next ones.
-  typename Integrator::DriftStats stage_one(std::size_t lo, std::size_t hi, double t_next) {
-    auto st = integrator.first_half(p, box, nl_.reference_positions(), lo, hi, t_next);
-    zero_forces(lo, hi);
-    return st;
-  }
-
-  static void merge(typename Integrator::DriftStats& into, const typename Integrator::DriftStats& s) {
-    if (!(s.max_step2 <= into.max_step2)) into.max_step2 = s.max_step2;
-    if (!(s.next_disp2 <= into.next_disp2)) into.push_disp(s.next_disp2);
-    if (!(s.max_disp2 <= into.next_disp2)) into.push_disp(s.max_disp2);
-  }
-
-  // Called by every thread of a parallel region, the forces of its block
-  // [lo, hi) cleared by every thread beforehand. Thread t evaluates its rows
-  // and writes a contact's share for a particle of its block straight into the
-  // store, for a particle outside it into its own ghost buffer (indexed like
-  // the store). Only the chunks of a ghost buffer its owner writes
-  // (NeighborList::touched) are zeroed and read, so little data crosses
-  // between cores. A particle's forces are complete once its own row is done,
-  // unless it is one of the block's late particles [lo, late_end(t)): those
-  // wait for the other threads' rows (one barrier), then add the ghost
-  // entries in thread order, so the sums are bitwise repeatable for a thread
-  // count. A complete particle gets its wall contacts (walls at t_pos, the
-  // time of the positions), and with `integrate` stage 2 of the step, and with
-  // `next` stage 1 of the next step (its drift statistics are returned).
-  typename Integrator::DriftStats sweep(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, bool integrate,
-                                        bool next, Durations* d) {
+  // Called by every thread of a parallel region. Thread t owns the particles
+  // of its block [lo, hi) (its rows of the neighbour list): it writes their
+  // force and torque straight into the store, and a contact's share for a
+  // particle outside the block into its own ghost buffer (indexed like the
+  // store). After one barrier each thread adds the others' ghost entries for
+  // its block, in thread order, so the sums are bitwise repeatable for a
+  // thread count; one thread has no ghosts and adds nothing. Only the chunks
+  // of a ghost buffer its owner writes (NeighborList::touched) are zeroed and
+  // read, so little data crosses between cores. Then wall contacts, per
+  // particle of the block. t_pos: the time of the positions (moving walls are
+  // placed at it).
+  void forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts) {
     const std::size_t n = p.size();
     constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
-    const std::size_t late = nl_.late_end(t);
-    auto mark = PhaseTimers::Clock::now();
+    std::fill(p.f.begin() + static_cast<std::ptrdiff_t>(lo), p.f.begin() + static_cast<std::ptrdiff_t>(hi), V::Zero());
+    std::fill(p.tq.begin() + static_cast<std::ptrdiff_t>(lo), p.tq.begin() + static_cast<std::ptrdiff_t>(hi),
+              A::Zero());
     Sinks sk{p.f.data(), p.tq.data(), p.f.data(), p.tq.data(), lo, hi - lo};
     if (nt > 1) {
       sk.gf = fbuf_[static_cast<std::size_t>(t)].data();
@@ -361,41 +293,23 @@ class Simulation {
             sk.gt[i].setZero();
           }
     }
-    typename Integrator::DriftStats st;
-    // Walls, stage 2 and stage 1 of the next step on the complete particles [a, b).
-    auto finish = [&](std::size_t a, std::size_t b) {
-      if (d) d->add(d->pairs, mark);
-      std::apply([&](const auto&... w) { (w.apply(p, law, a, b, t_pos), ...); }, walls);
-      if (d) d->add(d->walls, mark);
-      if (integrate) integrator.second_half(p, box, a, b);
-      if (next) merge(st, stage_one(a, b, t_pos + integrator.dt));
-      if (d) d->add(d->integrate, mark);
-    };
     if constexpr (HasPairBatch<Law, Dim>::value) {
       PairBatch<Dim>& b = batch_[t];
       b.n = 0;
       nl_.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
-        for (std::size_t i0 = a; i0 < e; i0 += kPiece) {
-          const std::size_t i1 = std::min(e, i0 + kPiece);
-          pairs_batched(b, col, i0, i1, sk);
-          if (b.n > 0) flush(b, sk);
-          if (i1 > late) finish(std::max(i0, late), i1);
-        }
+        pairs_batched(b, col, a, e, sk);
       });
+      if (b.n > 0) flush(b, sk);
     } else {
       nl_.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
-        for (std::size_t i0 = a; i0 < e; i0 += kPiece) {
-          const std::size_t i1 = std::min(e, i0 + kPiece);
-          pairs_scalar(col, i0, i1, sk);
-          if (i1 > late) finish(std::max(i0, late), i1);
-        }
+        pairs_scalar(col, a, e, sk);
       });
     }
     if (nt > 1) {
 #pragma omp barrier
-      // Add the other threads' ghost entries for the late particles, in thread order.
-      for (std::size_t i = lo; i < late;) {
-        const std::size_t c = i / kChunk, e = std::min(late, (c + 1) * kChunk);
+      // Add the other threads' ghost entries for this block, in thread order.
+      for (std::size_t i = lo; i < hi;) {
+        const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
         for (int u = 0; u < nt; ++u)
           if (u != t && nl_.touched(u, c))
             for (std::size_t q = i; q < e; ++q) {
@@ -405,8 +319,12 @@ class Simulation {
         i = e;
       }
     }
-    if (late > lo) finish(lo, late);
-    return st;
+#pragma omp master
+    ts.pairs_done = PhaseTimers::Clock::now();
+    // Walls act on the thread's own block only: no barrier needed.
+    std::apply([&](const auto&... w) { (w.apply(p, law, lo, hi, t_pos), ...); }, walls);
+#pragma omp master
+    ts.walls_done = PhaseTimers::Clock::now();
   }
 
   // The pair loop over rows [lo, hi) (held in col), one contact at a time:

@@ -85,10 +85,7 @@ class CellList {
   int cell_of(std::size_t k) const { return cell_of_[k]; }
 
   // Half stencil of cell c: c itself plus the adjacent cells whose offset is
-  // lexicographically positive, the axis of largest stride most significant,
-  // with periodic wrap. Away from a wrap every such cell has a larger index
-  // than c, so a row lists only particles after its own in the store (the
-  // fused sweep relies on it, engine/simulation.hpp). Visiting (c, c') for c' in
+  // lexicographically positive, with periodic wrap. Visiting (c, c') for c' in
   // half_stencil(c) meets every pair of adjacent cells exactly once (periodic
   // axes have >= 3 cells or are collapsed to 1). Returns the count; out[0] = c.
   // shift[s]: what the wrap moved cell s by, so that x_j + shift[s] is the image
@@ -105,8 +102,7 @@ class CellList {
       bool ok = true;
       int idx = 0;
       V sh = V::Zero();
-      for (int digit = 0; digit < Dim; ++digit) {
-        const int k = order_[digit];  // the axis of the digit-th smallest stride
+      for (int k = 0; k < Dim; ++k) {
         const int off = t % 3 - 1;
         t /= 3;
         if (n_[k] == 1 && off != 0) { ok = false; break; }

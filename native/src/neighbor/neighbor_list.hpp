@@ -55,8 +55,6 @@ class NeighborList {
     nt_ = omp_get_max_threads();
     col_.resize(nt_);
     touched_.resize(nt_);
-    reach_.resize(nt_);
-    late_end_.assign(static_cast<std::size_t>(nt_), 0);
     row_begin_.resize(n);
     row_end_.resize(n);
     weight_.resize(n);
@@ -156,35 +154,15 @@ class NeighborList {
 #pragma omp single
       balance(n);
       // Which chunks outside its block thread t's rows write to (one thread
-      // owns every particle and writes no ghosts), and which particles its
-      // rows reach out of order: in another block, or before the row's own
-      // (across a periodic wrap). Each block's late particles are those up to
-      // the last particle so reached (late_end).
+      // owns every particle and writes no ghosts).
       const std::size_t blo = bounds_[t], bhi = bounds_[t + 1];  // block(t)
       auto& mark = touched_[t];
       mark.assign(n_chunks, 0);
-      auto& reach = reach_[t];
-      reach.assign(static_cast<std::size_t>(nt_), 0);
-      for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* c) {
-        for (std::size_t i = a; i < e; ++i)
-          for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k) {
-            const std::uint32_t j = c[k];
-            const bool outside = (j < blo) | (j >= bhi);
-            mark[j / kChunk] |= static_cast<std::uint8_t>(outside);
-            if (outside | (j < i)) {
-              std::size_t& r = reach[static_cast<std::size_t>(owner(j))];
-              r = std::max(r, static_cast<std::size_t>(j) + 1);
-            }
-          }
-      });
-#pragma omp barrier
-#pragma omp single
-      for (int u = 0; u < nt_; ++u) {
-        late_end_[static_cast<std::size_t>(u)] = bounds_[static_cast<std::size_t>(u)];
-        for (int v = 0; v < nt_; ++v)
-          late_end_[static_cast<std::size_t>(u)] =
-              std::max(late_end_[static_cast<std::size_t>(u)], reach_[static_cast<std::size_t>(v)][static_cast<std::size_t>(u)]);
-      }
+      if (nt_ > 1)
+        for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* c) {
+          for (std::uint32_t k = row_begin_[a], ke = row_end_[e - 1]; k < ke; ++k)
+            mark[c[k] / kChunk] |= static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
+        });
     }
     ++builds_;
   }
@@ -209,12 +187,6 @@ class NeighborList {
       if (a < b) f(a, b, col(u));
     }
   }
-  // Block t's late particles, [block(t).first, late_end(t)): the ones that rows
-  // of other blocks, or rows after their own across a periodic wrap, list.
-  // Every other particle of the block is listed only by its own block's rows
-  // before its own (the half stencil points forward, cell_list.hpp), so its
-  // forces are complete once its own row is done (engine/simulation.hpp).
-  std::size_t late_end(int t) const { return late_end_[static_cast<std::size_t>(t)]; }
   std::uint32_t begin(std::size_t i) const { return row_begin_[i]; }
   std::uint32_t end(std::size_t i) const { return row_end_[i]; }
   // Whether thread t writes force entries of particles outside its block in
@@ -272,17 +244,8 @@ class NeighborList {
     }
   }
 
-  // The block that owns particle j.
-  int owner(std::size_t j) const {
-    int u = 0;
-    while (u + 1 < nt_ && j >= bounds_[static_cast<std::size_t>(u) + 1]) ++u;
-    return u;
-  }
-
   CellList<Dim> cells_;
   int nt_ = 1;
-  std::vector<std::vector<std::size_t>> reach_;  // per thread: per block, 1 + the last particle reached out of order
-  std::vector<std::size_t> late_end_{0};
   std::vector<std::vector<std::uint32_t>> col_;
   std::vector<std::vector<std::uint8_t>> touched_;
   std::vector<std::uint32_t> row_begin_, row_end_;
