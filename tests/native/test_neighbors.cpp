@@ -79,6 +79,37 @@ TEST(Neighbors, PeriodicAxisTooShortForThreeCells) {
   check_against_oracle(sim, 0.4, 1);
 }
 
+// A few particles much larger than the rest form their own class: the cells
+// are sized for the small ones and each large particle lists its pairs from
+// every cell within its reach (neighbor_list.hpp). Large ones next to each
+// other, across the periodic end and pressed against a wall; the list must
+// still equal the oracle, on one thread and two.
+TEST(Neighbors, FewLargeParticlesListAllTheirPairs) {
+  for (int threads : {1, 2}) {
+    auto sim = random_cloud({-10, -30, -10}, {10, 30, 10}, {false, true, false}, 4000, 12);
+    const std::array<Eigen::Vector3d, 6> at = {Eigen::Vector3d(0, 0, 0),     Eigen::Vector3d(3.5, 0, 0),
+                                               Eigen::Vector3d(0, 29.0, 5),  Eigen::Vector3d(0, -29.5, 5),
+                                               Eigen::Vector3d(-9.8, 10, 0), Eigen::Vector3d(9.9, -12, -9.9)};
+    for (std::size_t k = 0; k < at.size(); ++k) {
+      sim.p.x[k] = at[k];
+      sim.p.d[k] = k % 2 ? 4.0 : 5.0;
+    }
+    check_against_oracle(sim, 0.4, threads);
+    EXPECT_EQ(sim.neighbors().n_large(), at.size());
+    // The large ones sit at the end of the store, after every cell.
+    for (std::size_t i = sim.p.size() - at.size(); i < sim.p.size(); ++i) EXPECT_GE(sim.p.d[i], 4.0);
+  }
+}
+
+// Too many large particles for a class of their own (a bidisperse mixture):
+// one class, the cells sized for the largest.
+TEST(Neighbors, HalfLargeIsOneClass) {
+  auto sim = random_cloud({-10, -30, -10}, {10, 30, 10}, {false, true, false}, 3000, 13);
+  for (std::size_t i = 0; i < sim.p.size(); i += 2) sim.p.d[i] *= 2.0;
+  check_against_oracle(sim, 0.4, 2);
+  EXPECT_EQ(sim.neighbors().n_large(), 0u);
+}
+
 TEST(Neighbors, RebuiltAfterMotion) {
   // Particles drift; after many steps the list must still contain every pair in range.
   auto sim = random_cloud({-8, -16, -8}, {8, 16, 8}, {true, true, true}, 800, 5, true);

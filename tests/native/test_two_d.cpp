@@ -66,3 +66,34 @@ TEST(TwoD, NeighborListMatchesOracle) {
   ASSERT_GT(oracle.size(), 100u);
   EXPECT_EQ(sim.neighbors().pairs_by_id(sim.p), oracle);
 }
+
+// The shaken box's big disk among its grains: a class of its own (the cells
+// are sized for the grains), here against the walls, the corner and the
+// periodic end, on one thread and two.
+TEST(TwoD, BigDiskListedAgainstItsGrains) {
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    for (const Eigen::Vector2d& at : {Eigen::Vector2d(20, 15), Eigen::Vector2d(1, 1), Eigen::Vector2d(39.5, 28.5)}) {
+      Sim2 sim;
+      sim.box.lo = Eigen::Vector2d(0, 0);
+      sim.box.hi = Eigen::Vector2d(40, 30);
+      sim.box.periodic = {true, false};
+      sim.box.finalize();
+      std::mt19937_64 gen(17);
+      std::uniform_real_distribution<double> u(0.0, 1.0);
+      sim.p.add(at, Eigen::Vector2d::Zero(), Ang<2>::Zero(), 8.0, 16.0, 10.0, 1);
+      for (int i = 0; i < 700; ++i)
+        sim.p.add(Eigen::Vector2d(40 * u(gen), 30 * u(gen)), Eigen::Vector2d::Zero(), Ang<2>::Zero(),
+                  1.7 + 0.6 * u(gen), 1.0, 0.1, 0);
+      sim.skin = 0.5;
+      sim.init();
+      EXPECT_EQ(sim.neighbors().n_large(), 1u);
+      auto range = [](double a, double b) { return RapaportLaw<2>::range(a, b); };
+      const auto oracle = brute_force_pairs(sim.p, sim.box, 0.5, range);
+      std::size_t big = 0;
+      for (const auto& pr : oracle) big += pr.first == 0;
+      ASSERT_GT(big, 10u);  // the big disk has many partners to find
+      EXPECT_EQ(sim.neighbors().pairs_by_id(sim.p), oracle);
+    }
+  }
+}

@@ -57,7 +57,7 @@ class Simulation {
   // Call once the store, box, law and walls are set: builds the list and the
   // forces at t = 0 that the first half kick needs.
   void init() {
-    set_max_range();
+    set_d_min();
     rebuild();
     compute_forces();
     integrator.start(p);
@@ -127,7 +127,7 @@ class Simulation {
   // reorders nothing (the cell sort is stable and the store is in its order),
   // so the next step sums forces exactly as the interrupted run would have.
   void restore_neighbors(std::vector<V> x_ref) {
-    set_max_range();
+    set_d_min();
     const std::vector<std::int64_t> saved_order = p.id;
     std::swap(p.x, x_ref);
     rebuild();
@@ -139,7 +139,7 @@ class Simulation {
   // forces = false: f and tq are recomputed before anything reads them (the
   // rebuild inside a step, after the drift), so the reorder skips them.
   void rebuild(bool forces = true) {
-    nl_.build(p, box, max_range_, skin, [](double a, double b) { return Law::range(a, b); }, exclude_species,
+    nl_.build(p, box, skin, [](double a, double b) { return Law::range(a, b); }, exclude_species,
               forces, kParticleWeight);
   }
 
@@ -215,15 +215,10 @@ class Simulation {
   double max_step_move() const { return std::min(0.5 * d_min_, max_speed * integrator.dt); }
 
  private:
-  // The list's cell size: the law's range for the two largest particles.
-  void set_max_range() {
-    double dmax = 0.0;
+  // The smallest diameter, for the step-move limit.
+  void set_d_min() {
     d_min_ = std::numeric_limits<double>::infinity();
-    for (double d : p.d) {
-      dmax = std::max(dmax, d);
-      d_min_ = std::min(d_min_, d);
-    }
-    max_range_ = Law::range(dmax, dmax);
+    for (double d : p.d) d_min_ = std::min(d_min_, d);
   }
 
   // The per-thread ghost buffers and contact batches, sized before a parallel
@@ -475,7 +470,6 @@ class Simulation {
   }
 
   NeighborList<Dim> nl_;
-  double max_range_ = 0.0;
   double d_min_ = std::numeric_limits<double>::infinity();  // smallest diameter (the step-move limit)
   std::vector<std::vector<V>> fbuf_;
   std::vector<std::vector<A>> tbuf_;

@@ -1,6 +1,9 @@
 // Cell list by counting sort (count per cell, exclusive scan, scatter), after
 // Cabana's LinkedCellList. Cells are at least `min_cell` wide, so every pair
-// closer than min_cell lies in the same or an adjacent cell.
+// closer than min_cell lies in the same or an adjacent cell. Particles wider
+// than `d_large` (a few, much larger than the rest: the big disk of the
+// shaken box) go to one extra bucket after the last cell, large(), so that
+// the cells can be sized for the others (neighbor_list.hpp).
 #pragma once
 #include <algorithm>
 #include <array>
@@ -21,8 +24,8 @@ class CellList {
   // [lo, hi): a parallel counting sort (per-thread histograms, one scan over
   // cells and threads, per-thread scatter). Particles keep their index order
   // within a cell, so the result is the same for any thread count.
-  void build_in_region(const Box<Dim>& box, const std::vector<V>& x, double min_cell, int t, int nt,
-                       std::size_t lo, std::size_t hi) {
+  void build_in_region(const Box<Dim>& box, const std::vector<V>& x, const std::vector<double>& d, double d_large,
+                       double min_cell, int t, int nt, std::size_t lo, std::size_t hi) {
     const std::size_t n = x.size();
 #pragma omp single
     {
@@ -44,23 +47,24 @@ class CellList {
       n_cells_ = stride_[order_[Dim - 1]] * n_[order_[Dim - 1]];
       periodic_ = box.periodic;
       len_ = len;
+      lo_ = box.lo;
       cell_tmp_.resize(n);
       cell_of_.resize(n);
       sorted_.resize(n);
-      cell_start_.assign(n_cells_ + 1, 0);
+      cell_start_.assign(n_cells_ + 2, 0);  // the cells, the large bucket, the end
       offset_.resize(nt);
     }  // implicit barrier
     auto& count = offset_[t];
-    count.assign(n_cells_, 0);
+    count.assign(n_cells_ + 1, 0);
     for (std::size_t i = lo; i < hi; ++i) {
-      cell_tmp_[i] = cell_index(box, x[i]);
+      cell_tmp_[i] = d[i] > d_large ? n_cells_ : cell_index(box, x[i]);
       ++count[cell_tmp_[i]];
     }
 #pragma omp barrier
 #pragma omp single
     {
       std::uint32_t run = 0;
-      for (int c = 0; c < n_cells_; ++c) {
+      for (int c = 0; c <= n_cells_; ++c) {
         cell_start_[c] = run;
         for (int u = 0; u < nt; ++u) {
           const std::uint32_t k = offset_[u][c];
@@ -68,7 +72,7 @@ class CellList {
           run += k;
         }
       }
-      cell_start_[n_cells_] = run;
+      cell_start_[n_cells_ + 1] = run;
     }  // implicit barrier
     for (std::size_t i = lo; i < hi; ++i) sorted_[count[cell_tmp_[i]]++] = static_cast<std::uint32_t>(i);
 #pragma omp barrier
@@ -79,6 +83,8 @@ class CellList {
   // Particle indices in cell order (a permutation: use it to reorder the store).
   const std::vector<std::uint32_t>& sorted() const { return sorted_; }
   int n_cells() const { return n_cells_; }
+  // The bucket of the large particles: they follow every cell's particles.
+  int large() const { return n_cells_; }
   std::uint32_t begin(int c) const { return cell_start_[c]; }
   std::uint32_t end(int c) const { return cell_start_[c + 1]; }
   // Cell of the particle at slot k of the reordered store.
@@ -121,6 +127,37 @@ class CellList {
     }
     return count;
   }
+  // f(c) once for every cell c that can hold a particle within `reach` of
+  // position xc (each cell once, with periodic wrap): the full neighbourhood a
+  // large particle searches. Separations must be taken with Box::min_image.
+  template <class F>
+  void for_cells_within(const V& xc, double reach, F&& f) const {
+    std::array<int, Dim> first{}, count{}, q{};
+    for (int k = 0; k < Dim; ++k) {
+      const int c = std::clamp(static_cast<int>(std::floor((xc[k] - lo_[k]) / width_[k])), 0, n_[k] - 1);
+      const int r = static_cast<int>(std::ceil(reach / width_[k]));
+      if (periodic_[k] && 2 * r + 1 >= n_[k]) {
+        first[k] = 0;
+        count[k] = n_[k];
+      } else if (periodic_[k]) {
+        first[k] = c - r;
+        count[k] = 2 * r + 1;
+      } else {
+        first[k] = std::max(0, c - r);
+        count[k] = std::min(n_[k] - 1, c + r) - first[k] + 1;
+      }
+    }
+    // An odometer over the Dim ranges.
+    while (true) {
+      int idx = 0;
+      for (int k = 0; k < Dim; ++k) idx += ((first[k] + q[k] + n_[k]) % n_[k]) * stride_[k];
+      f(idx);
+      int k = 0;
+      while (k < Dim && ++q[k] == count[k]) q[k++] = 0;
+      if (k == Dim) break;
+    }
+  }
+
   // A periodic axis too short for three cells: pairs may meet across it
   // within one cell, and only Box::min_image finds the nearest image.
   bool collapsed_periodic() const {
@@ -148,6 +185,7 @@ class CellList {
   std::array<bool, Dim> periodic_{};
   V width_ = V::Zero();
   V len_ = V::Zero();
+  V lo_ = V::Zero();
   int n_cells_ = 0;
   std::vector<int> cell_of_, cell_tmp_;
   std::vector<std::vector<std::uint32_t>> offset_;

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -47,8 +48,22 @@ class NeighborList {
   // and made Gear's stages 1.5 times dearer per particle there).
   // forces = false: the caller recomputes f and tq before reading them, so
   // the reorder leaves them as they are.
+  //
+  // Size classes. A few particles much larger than the rest would set a cell
+  // size far too large for the others: the shaken box's big disk (radius 4
+  // among grains of radius 0.85-1.15) made 8.5-wide cells where 2.8 serve the
+  // grains, and each grain's row tested 9 times the candidates it needs. If
+  // no more than n / kLargeShare particles are wider than d_max / kLargeRatio,
+  // they are large: the cells are sized for the others and leave the large
+  // ones out (CellList::large(), a bucket after the last cell, so they sit at
+  // the end of the store), and each large particle lists all its pairs in its
+  // own row, from every cell within its reach and the large ones after it.
+  // The others' rows never meet a large particle. Otherwise (Rapaport's
+  // drums, half big and half small) there is one class and nothing changes.
+  static constexpr double kLargeRatio = 1.5;
+  static constexpr std::size_t kLargeShare = 64;
   template <class RangeFn>
-  void build(ParticleStore<Dim>& p, const Box<Dim>& box, double max_range, double skin, RangeFn range,
+  void build(ParticleStore<Dim>& p, const Box<Dim>& box, double skin, RangeFn range,
              int exclude_species = -1, bool forces = true, std::uint32_t particle_weight = 1) {
     skin_ = skin;
     const std::size_t n = p.size();
@@ -63,13 +78,25 @@ class NeighborList {
     static_assert(sizeof(V) == Dim * sizeof(double), "range_scan reads the positions as packed doubles");
     double d_max = 0.0;
     for (double dj : p.d) d_max = std::max(d_max, dj);
+    // The size classes (above): d_small is the largest diameter that is not large.
+    double d_large = d_max / kLargeRatio, d_small = 0.0;
+    std::size_t n_large = 0;
+    for (double dj : p.d) {
+      n_large += dj > d_large;
+      if (dj <= d_large) d_small = std::max(d_small, dj);
+    }
+    if (n_large == 0 || n_large * kLargeShare > n) {
+      d_large = std::numeric_limits<double>::infinity();
+      d_small = d_max;
+    }
+    n_large_ = d_large < d_max ? n_large : 0;
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
     p.prepare_reorder();
 #pragma omp parallel num_threads(nt_)
     {
       const int t = omp_get_thread_num();
       const auto [lo, hi] = thread_block(n, nt_, t);
-      cells_.build_in_region(box, p.x, max_range + skin, t, nt_, lo, hi);
+      cells_.build_in_region(box, p.x, p.d, d_large, range(d_small, d_small) + skin, t, nt_, lo, hi);
       p.reorder_in_parallel(cells_.sorted(), lo, hi, forces);
 #pragma omp barrier
       auto& out = col_[t];
@@ -88,8 +115,42 @@ class NeighborList {
       const double* d = p.d.data();
       const V* x = p.x.data();
       const double* xflat = reinterpret_cast<const double*>(x);
+      // A large particle's row: every pair within range + skin, from the
+      // cells within its reach (whatever the direction: no small particle's
+      // row lists a large one) and the large particles after it. Few rows,
+      // so the plain minimum-image test.
+      const std::uint32_t large_end = cells_.end(cells_.large());
+      auto list_large = [&](std::size_t i) {
+        const V xi = x[i];
+        const double di = d[i];
+        const bool excluded_i = species[i] == exclude_species;
+        std::uint32_t contacts = 0;
+        auto scan = [&](std::uint32_t b, std::uint32_t e) {
+          if (out.size() < n_out + (e - b)) out.resize(std::max(2 * out.size(), n_out + (e - b) + kScanSlack));
+          for (std::uint32_t j = b; j < e; ++j) {
+            const double r0 = range(di, d[j]), rc = r0 + skin;
+            const double r2 = box.min_image(xi - x[j]).squaredNorm();
+            const bool hit = (r2 < rc * rc) & !(excluded_i & (species[j] == exclude_species));
+            out[n_out] = j;
+            n_out += hit;
+            contacts += hit & (r2 < r0 * r0);
+          }
+        };
+        cells_.for_cells_within(xi, range(di, d_small) + skin,
+                                [&](int c) { scan(cells_.begin(c), cells_.end(c)); });
+        scan(static_cast<std::uint32_t>(i + 1), large_end);
+        return contacts;
+      };
       for (std::size_t i = lo; i < hi; ++i) {
         row_begin_[i] = static_cast<std::uint32_t>(n_out);
+        if (cells_.cell_of(i) == cells_.large()) {
+          const std::uint32_t contacts = list_large(i);
+          row_end_[i] = static_cast<std::uint32_t>(n_out);
+          x_ref_[i] = x[i];
+          weight_[i] = row_end_[i] - row_begin_[i] + kContactWeight * contacts + particle_weight;
+          work += weight_[i];
+          continue;
+        }
         // The store is in cell order: the stencil changes only with the cell.
         if (cells_.cell_of(i) != cell) {
           cell = cells_.cell_of(i);
@@ -108,8 +169,9 @@ class NeighborList {
         const V xi = x[i];
         const double di = d[i];
         const bool excluded_i = species[i] == exclude_species;
-        // The filter's cutoff: the largest i can have (range grows with d_j).
-        const double cut = range(di, d_max) + skin;
+        // The filter's cutoff: the largest i can have with a particle of the
+        // cells (range grows with d_j).
+        const double cut = range(di, d_small) + skin;
         const double cut2 = cut * cut * (1.0 + 1e-12);
         std::uint32_t contacts = 0;
         for (int s = 0; s < n_runs; ++s) {
@@ -198,6 +260,8 @@ class NeighborList {
     return k;
   }
   double skin() const { return skin_; }
+  // Particles in the large class at the last build (0: one class).
+  std::size_t n_large() const { return n_large_; }
   long builds() const { return builds_; }
   const std::vector<V>& reference_positions() const { return x_ref_; }
 
@@ -254,6 +318,7 @@ class NeighborList {
   std::vector<std::size_t> bounds_{0, 0};  // block(t) = [bounds_[t], bounds_[t + 1])
   std::vector<V> x_ref_;
   double skin_ = 0.0;
+  std::size_t n_large_ = 0;
   long builds_ = 0;
 };
 
