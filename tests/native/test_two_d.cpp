@@ -38,6 +38,26 @@ double restitution(double dt) {
   return (sim.p.v[1 - a][0] - sim.p.v[a][0]) / 1.0;
 }
 
+// A 40 x 30 strip, periodic along x.
+Sim2 periodic_strip() {
+  Sim2 sim;
+  sim.box.lo = Eigen::Vector2d(0, 0);
+  sim.box.hi = Eigen::Vector2d(40, 30);
+  sim.box.periodic = {true, false};
+  sim.box.finalize();
+  return sim;
+}
+
+// n disks at uniform random places in the strip, diameters uniform in
+// [d0, d0 + spread); species alternate 0, 1 if `alternate`, else all 0.
+void add_random_disks(Sim2& sim, int n, unsigned seed, double d0, double spread, bool alternate) {
+  std::mt19937_64 gen(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < n; ++i)
+    sim.p.add(Eigen::Vector2d(40 * u(gen), 30 * u(gen)), Eigen::Vector2d::Zero(), Ang<2>::Zero(), d0 + spread * u(gen),
+              1.0, 0.1, alternate ? i % 2 : 0);
+}
+
 }  // namespace
 
 TEST(TwoD, HeadOnCollisionSameAsIn3D) {
@@ -49,16 +69,8 @@ TEST(TwoD, HeadOnCollisionSameAsIn3D) {
 
 TEST(TwoD, NeighborListMatchesOracle) {
   omp_set_num_threads(2);
-  Sim2 sim;
-  sim.box.lo = Eigen::Vector2d(0, 0);
-  sim.box.hi = Eigen::Vector2d(40, 30);
-  sim.box.periodic = {true, false};
-  sim.box.finalize();
-  std::mt19937_64 gen(11);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  for (int i = 0; i < 900; ++i)
-    sim.p.add(Eigen::Vector2d(40 * u(gen), 30 * u(gen)), Eigen::Vector2d::Zero(), Ang<2>::Zero(), 0.8 + 0.5 * u(gen),
-              1.0, 0.1, i % 2);
+  Sim2 sim = periodic_strip();
+  add_random_disks(sim, 900, 11, 0.8, 0.5, true);
   sim.skin = 0.3;
   sim.init();
   auto range = [](double a, double b) { return RapaportLaw<2>::range(a, b); };
@@ -74,17 +86,9 @@ TEST(TwoD, BigDiskListedAgainstItsGrains) {
   for (int threads : {1, 2}) {
     omp_set_num_threads(threads);
     for (const Eigen::Vector2d& at : {Eigen::Vector2d(20, 15), Eigen::Vector2d(1, 1), Eigen::Vector2d(39.5, 28.5)}) {
-      Sim2 sim;
-      sim.box.lo = Eigen::Vector2d(0, 0);
-      sim.box.hi = Eigen::Vector2d(40, 30);
-      sim.box.periodic = {true, false};
-      sim.box.finalize();
-      std::mt19937_64 gen(17);
-      std::uniform_real_distribution<double> u(0.0, 1.0);
+      Sim2 sim = periodic_strip();
       sim.p.add(at, Eigen::Vector2d::Zero(), Ang<2>::Zero(), 8.0, 16.0, 10.0, 1);
-      for (int i = 0; i < 700; ++i)
-        sim.p.add(Eigen::Vector2d(40 * u(gen), 30 * u(gen)), Eigen::Vector2d::Zero(), Ang<2>::Zero(),
-                  1.7 + 0.6 * u(gen), 1.0, 0.1, 0);
+      add_random_disks(sim, 700, 17, 1.7, 0.6, false);
       sim.skin = 0.5;
       sim.init();
       EXPECT_EQ(sim.neighbors().n_large(), 1u);

@@ -120,13 +120,18 @@ class NeighborList {
       // row lists a large one) and the large particles after it. Few rows,
       // so the plain minimum-image test.
       const std::uint32_t large_end = cells_.end(cells_.large());
+      // Room in out for k more columns (the vector scan stores whole vectors
+      // past the last kept one).
+      auto room = [&](std::uint32_t k) {
+        if (out.size() < n_out + k + kScanSlack) out.resize(std::max(2 * out.size(), n_out + k + kScanSlack));
+      };
       auto list_large = [&](std::size_t i) {
         const V xi = x[i];
         const double di = d[i];
         const bool excluded_i = species[i] == exclude_species;
         std::uint32_t contacts = 0;
         auto scan = [&](std::uint32_t b, std::uint32_t e) {
-          if (out.size() < n_out + (e - b)) out.resize(std::max(2 * out.size(), n_out + (e - b) + kScanSlack));
+          room(e - b);
           for (std::uint32_t j = b; j < e; ++j) {
             const double r0 = range(di, d[j]), rc = r0 + skin;
             const double r2 = box.min_image(xi - x[j]).squaredNorm();
@@ -141,16 +146,8 @@ class NeighborList {
         scan(static_cast<std::uint32_t>(i + 1), large_end);
         return contacts;
       };
-      for (std::size_t i = lo; i < hi; ++i) {
-        row_begin_[i] = static_cast<std::uint32_t>(n_out);
-        if (cells_.cell_of(i) == cells_.large()) {
-          const std::uint32_t contacts = list_large(i);
-          row_end_[i] = static_cast<std::uint32_t>(n_out);
-          x_ref_[i] = x[i];
-          weight_[i] = row_end_[i] - row_begin_[i] + kContactWeight * contacts + particle_weight;
-          work += weight_[i];
-          continue;
-        }
+      // A row of a particle of the cells: its half stencil, merged into runs.
+      auto list_in_cells = [&](std::size_t i) {
         // The store is in cell order: the stencil changes only with the cell.
         if (cells_.cell_of(i) != cell) {
           cell = cells_.cell_of(i);
@@ -179,8 +176,7 @@ class NeighborList {
           const std::uint32_t b = s == 0 ? static_cast<std::uint32_t>(i + 1) : run_b[s];
           const std::uint32_t e = run_e[s];
           if (b >= e) continue;
-          if (out.size() < n_out + (e - b) + kScanSlack)
-            out.resize(std::max(2 * out.size(), n_out + (e - b) + kScanSlack));
+          room(e - b);
           std::uint32_t* const o = out.data() + n_out;
           const V sh = run_shift[s];
           std::uint32_t* o_end;
@@ -205,6 +201,11 @@ class NeighborList {
           }
           n_out += static_cast<std::size_t>(w - o);
         }
+        return contacts;
+      };
+      for (std::size_t i = lo; i < hi; ++i) {
+        row_begin_[i] = static_cast<std::uint32_t>(n_out);
+        const std::uint32_t contacts = cells_.cell_of(i) == cells_.large() ? list_large(i) : list_in_cells(i);
         row_end_[i] = static_cast<std::uint32_t>(n_out);
         x_ref_[i] = x[i];
         weight_[i] = row_end_[i] - row_begin_[i] + kContactWeight * contacts + particle_weight;
