@@ -28,12 +28,12 @@
 #include <thread>
 #include <vector>
 
+#include "core/threads.hpp"
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// Microseconds per step of `threads` threads, each on its own share of n
-// particles; a barrier per step if `meet`.
 // The threads' shares of a column are kGap doubles apart: with shares that
 // touch, a thread streaming to the end of its share has the hardware prefetch
 // the first lines of the next share, which the other thread is writing, and
@@ -41,6 +41,9 @@ using Clock = std::chrono::steady_clock;
 // doubles: 64 removes it). The engine's blocks touch; reversing one thread's
 // sweeps there changed nothing (docs/speed_accuracy.md, stop 27).
 constexpr std::size_t kGap = 128;
+
+// Microseconds per step of `threads` threads, each on its own share of n
+// particles (kGap apart); a barrier per step if `meet`.
 double stream(std::size_t n, long steps, int threads, bool meet) {
   constexpr int kColumns = 10;
   std::vector<std::vector<double>> col(kColumns, std::vector<double>(n + kGap * static_cast<std::size_t>(threads), 1.0));
@@ -50,8 +53,8 @@ double stream(std::size_t n, long steps, int threads, bool meet) {
 #pragma omp parallel num_threads(threads)
   {
     const int t = omp_get_thread_num();
-    const std::size_t lo = n * t / threads + kGap * static_cast<std::size_t>(t),
-                      hi = n * (t + 1) / threads + kGap * static_cast<std::size_t>(t);
+    const auto [share_lo, share_hi] = granular::thread_block(n, threads, t);
+    const std::size_t gap = kGap * static_cast<std::size_t>(t), lo = share_lo + gap, hi = share_hi + gap;
     for (long s = 0; s < steps; ++s) {
       for (std::size_t i = lo; i < hi; ++i) {
         const double a = c[0][i] * 0.5 + c[1][i];
