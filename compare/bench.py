@@ -198,10 +198,10 @@ def scaling(rows) -> dict | None:
 
 
 # Neighbour-list skins: drum in units of the small diameter (default 0.4),
-# box in cm (default 0.5). The skin changes no force (the list holds every
+# box in cm (default 1.0). The skin changes no force (the list holds every
 # pair within range + skin and is rebuilt before a pair can close the skin),
 # only the cost: fewer builds against more pairs tested per step.
-SKINS = {"drum": (0.1, 0.2, 0.4, 0.6, 0.8, 1.2), "box": (0.1, 0.25, 0.5, 1.0, 2.0)}
+SKINS = {"drum": (0.1, 0.2, 0.4, 0.6, 0.8, 1.2), "box": (0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0)}
 
 
 def skin_cases() -> list[Case]:
