@@ -5,6 +5,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -64,37 +65,35 @@ class Simulation {
   }
 
   // One step. In the common case (no neighbour-list rebuild) the whole step is
-  // one parallel region: every thread integrates, computes forces for and
-  // finishes its own block, meeting the others only at two barriers.
+  // one parallel region: every thread moves its own block, evaluates its
+  // block's pairs and finishes it, meeting the others at one barrier (the
+  // ghost forces). Between the first stage and the pairs there is no barrier:
+  // each thread publishes its drift statistics and goes on with the rows that
+  // read only its own particles while the others finish (Gate below).
   void step() {
     const int nt = omp_get_max_threads();
     if (nt != nl_.threads()) rebuild();  // the thread count changed since the last build
     prepare_buffers(nt);
-    stats_.assign(nt, typename Integrator::DriftStats{});
     const auto& xref = nl_.reference_positions();
+    const long seq = ++seq_;
     typename Integrator::DriftStats st;
     bool finished = false;
     Stamps ts;
 #pragma omp parallel num_threads(nt)
     {
       const int t = omp_get_thread_num();
-      {
-        const auto [lo, hi] = nl_.block(t);
-        stats_[t] = integrator.first_half(p, box, xref, lo, hi, time + integrator.dt);
-      }
-#pragma omp barrier
-      // Every thread reaches the same verdict from the same numbers.
-      const auto all = combine(stats_);
-      const bool go_on = stable(all) && all.disp_bound() <= skin;
+      const auto [lo, hi] = nl_.block(t);
+      done_[t].stats = integrator.first_half(p, box, xref, lo, hi, time + integrator.dt);
+      done_[t].seq.store(seq, std::memory_order_release);
+#pragma omp master
+      ts.first = PhaseTimers::Clock::now();
+      Gate g{nt, seq};
+      if (forces_in_region(t, nt, lo, hi, time + integrator.dt, ts, &g)) finish(t, lo, hi, ts);
+      // Every thread reached the same verdict from the same numbers.
 #pragma omp master
       {
-        st = all;
-        finished = go_on;
-        ts.first = PhaseTimers::Clock::now();
-      }
-      if (go_on) {
-        const auto [lo, hi] = nl_.block(t);
-        forces_and_finish(t, nt, lo, hi, time + integrator.dt, ts);
+        st = g.all;
+        finished = g.go_on;
       }
     }
     timers.add(Phase::integrate, ts.first - ts.start);
@@ -111,7 +110,8 @@ class Simulation {
         const auto [lo, hi] = nl_.block(t);
 #pragma omp master
         ts.first = PhaseTimers::Clock::now();
-        forces_and_finish(t, nt, lo, hi, time + integrator.dt, ts);
+        forces_in_region(t, nt, lo, hi, time + integrator.dt, ts);
+        finish(t, lo, hi, ts);
       }
     }
     timers.add(Phase::pairs, ts.pairs_done - ts.first);
@@ -232,6 +232,60 @@ class Simulation {
     }
     if constexpr (HasPairBatch<Law, Dim>::value)
       if (static_cast<int>(batch_.size()) != nt) batch_.resize(nt);
+    if (static_cast<int>(done_.size()) != nt) std::vector<Done>(static_cast<std::size_t>(nt)).swap(done_);
+  }
+
+  // What a thread publishes after its first stage: its drift statistics, then
+  // the step's number (a release store, so that whoever reads the number also
+  // sees the statistics and the positions the thread moved). One cache line
+  // each, so that one thread's writes do not evict another's.
+  struct alignas(64) Done {
+    std::atomic<long> seq{0};
+    typename Integrator::DriftStats stats;
+    Done() = default;
+    // Copied with the simulation (between steps, when no thread writes it).
+    Done(const Done& o) : seq(o.seq.load(std::memory_order_relaxed)), stats(o.stats) {}
+    Done& operator=(const Done& o) {
+      seq.store(o.seq.load(std::memory_order_relaxed), std::memory_order_relaxed);
+      stats = o.stats;
+      return *this;
+    }
+  };
+
+  // A thread's view of the step's verdict: whether every thread's first stage
+  // stayed stable and within the skin. It is known once every thread has
+  // published (Done); until then the thread may evaluate only the rows of its
+  // block that read its own particles (NeighborList::own_end). Every thread
+  // combines the same published numbers in the same order, so all reach the
+  // same verdict without a barrier.
+  struct Gate {
+    int nt;
+    long seq;
+    bool known = false, go_on = false;
+    typename Integrator::DriftStats all{};
+  };
+  // Rows evaluated between two looks at the other threads' flags.
+  static constexpr std::size_t kPollRows = 16;
+
+  // Looks whether every thread has published; with wait, spins until they
+  // have. Returns whether the verdict is known.
+  bool poll(Gate& g, bool wait) const {
+    for (int u = 0; u < g.nt; ++u)
+      while (done_[u].seq.load(std::memory_order_acquire) != g.seq) {
+        if (!wait) return false;
+        spin_pause();
+      }
+    typename Integrator::DriftStats all;
+    for (int u = 0; u < g.nt; ++u) combine_into(all, done_[u].stats);
+    g.all = all;
+    g.go_on = stable(all) && all.disp_bound() <= skin;
+    g.known = true;
+    return true;
+  }
+  static void spin_pause() {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#endif
   }
 
   // Where a thread's pair loop puts forces and torques: the store for the
@@ -252,8 +306,9 @@ class Simulation {
                                    walls_done = start, end = start;
   };
 
-  void forces_and_finish(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts) {
-    forces_in_region(t, nt, lo, hi, t_pos, ts);
+  // The second stage on the thread's own block.
+  void finish(int t, std::size_t lo, std::size_t hi, Stamps& ts) {
+    (void)t;
     integrator.second_half(p, box, lo, hi);
 #pragma omp master
     ts.end = PhaseTimers::Clock::now();
@@ -269,8 +324,13 @@ class Simulation {
   // of a ghost buffer its owner writes (NeighborList::touched) are zeroed and
   // read, so little data crosses between cores. Then wall contacts, per
   // particle of the block. t_pos: the time of the positions (moving walls are
-  // placed at it).
-  void forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts) {
+  // placed at it). With a gate (in step(), straight after the first stage),
+  // the rows that read another block wait for the verdict, and a verdict to
+  // rebuild stops the loop: then every thread returns false, before the
+  // barrier, and the forces are recomputed after the rebuild. Without one the
+  // caller knows the positions are final everywhere.
+  bool forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts,
+                        Gate* gate = nullptr) {
     const std::size_t n = p.size();
     constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
@@ -288,18 +348,38 @@ class Simulation {
             sk.gt[i].setZero();
           }
     }
+    // The rows of the block in pieces, each after a look at the gate.
+    const std::size_t own_end = nl_.own_end(t);
+    bool stop = false;
+    auto rows = [&](auto&& eval) {
+      nl_.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
+        for (std::size_t r = a; r < e && !stop;) {
+          std::size_t r1 = std::min(e, r + kPollRows);
+          if (gate && !gate->known) {
+            if (r >= own_end)
+              poll(*gate, true);
+            else if (!poll(*gate, false))
+              r1 = std::min(r1, own_end);
+            if (gate->known && !gate->go_on) {
+              stop = true;
+              return;
+            }
+          }
+          eval(col, r, r1);
+          r = r1;
+        }
+      });
+    };
     if constexpr (HasPairBatch<Law, Dim>::value) {
       PairBatch<Dim>& b = batch_[t];
       b.n = 0;
-      nl_.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
-        pairs_batched(b, col, a, e, sk);
-      });
-      if (b.n > 0) flush(b, sk);
+      rows([&](const std::uint32_t* col, std::size_t a, std::size_t e) { pairs_batched(b, col, a, e, sk); });
+      if (b.n > 0 && !stop) flush(b, sk);
     } else {
-      nl_.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
-        pairs_scalar(col, a, e, sk);
-      });
+      rows([&](const std::uint32_t* col, std::size_t a, std::size_t e) { pairs_scalar(col, a, e, sk); });
     }
+    if (gate && !gate->known) poll(*gate, true);  // every row read only the block's own particles
+    if (gate && !gate->go_on) return false;
     if (nt > 1) {
 #pragma omp barrier
       // Add the other threads' ghost entries for this block, in thread order.
@@ -320,6 +400,7 @@ class Simulation {
     std::apply([&](const auto&... w) { (w.apply(p, law, lo, hi, t_pos), ...); }, walls);
 #pragma omp master
     ts.walls_done = PhaseTimers::Clock::now();
+    return true;
   }
 
   // The pair loop over rows [lo, hi) (held in col), one contact at a time:
@@ -427,14 +508,11 @@ class Simulation {
     }
   }
 
-  static typename Integrator::DriftStats combine(const std::vector<typename Integrator::DriftStats>& per) {
-    typename Integrator::DriftStats st;
-    for (const auto& s : per) {
-      if (!(s.max_step2 <= st.max_step2)) st.max_step2 = s.max_step2;
-      if (!(s.next_disp2 <= st.next_disp2)) st.push_disp(s.next_disp2);
-      if (!(s.max_disp2 <= st.next_disp2)) st.push_disp(s.max_disp2);
-    }
-    return st;
+  // Adds one thread's drift statistics to st.
+  static void combine_into(typename Integrator::DriftStats& st, const typename Integrator::DriftStats& s) {
+    if (!(s.max_step2 <= st.max_step2)) st.max_step2 = s.max_step2;
+    if (!(s.next_disp2 <= st.next_disp2)) st.push_disp(s.next_disp2);
+    if (!(s.max_disp2 <= st.next_disp2)) st.push_disp(s.max_disp2);
   }
 
   bool stable(const typename Integrator::DriftStats& st) const {
@@ -474,7 +552,8 @@ class Simulation {
   std::vector<std::vector<V>> fbuf_;
   std::vector<std::vector<A>> tbuf_;
   std::vector<PairBatch<Dim>> batch_;  // per thread, for laws with a batch kernel
-  std::vector<typename Integrator::DriftStats> stats_;
+  std::vector<Done> done_;             // per thread, see Gate
+  long seq_ = 0;                       // the steps taken by this object, for Done
 };
 
 }  // namespace granular

@@ -70,6 +70,7 @@ class NeighborList {
     nt_ = omp_get_max_threads();
     col_.resize(nt_);
     touched_.resize(nt_);
+    own_end_.resize(nt_);
     row_begin_.resize(n);
     row_end_.resize(n);
     weight_.resize(n);
@@ -217,15 +218,25 @@ class NeighborList {
 #pragma omp single
       balance(n);
       // Which chunks outside its block thread t's rows write to (one thread
-      // owns every particle and writes no ghosts).
+      // owns every particle and writes no ghosts), and the first of its rows
+      // that reads a particle of another block.
       const std::size_t blo = bounds_[t], bhi = bounds_[t + 1];  // block(t)
       auto& mark = touched_[t];
       mark.assign(n_chunks, 0);
+      std::size_t own_end = bhi;
       if (nt_ > 1)
         for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* c) {
-          for (std::uint32_t k = row_begin_[a], ke = row_end_[e - 1]; k < ke; ++k)
-            mark[c[k] / kChunk] |= static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
+          for (std::size_t i = a; i < e; ++i) {
+            std::uint8_t out_i = 0;
+            for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k) {
+              const std::uint8_t o = static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
+              mark[c[k] / kChunk] |= o;
+              out_i |= o;
+            }
+            if (out_i && own_end == bhi) own_end = i;
+          }
         });
+      own_end_[t] = own_end;
     }
     ++builds_;
   }
@@ -255,6 +266,9 @@ class NeighborList {
   // Whether thread t writes force entries of particles outside its block in
   // chunk c (particles c*kChunk ...).
   bool touched(int t, std::size_t c) const { return touched_[t][c] != 0; }
+  // The rows of block(t) before own_end(t) read only particles of block(t):
+  // thread t can evaluate them as soon as it has moved its own particles.
+  std::size_t own_end(int t) const { return nt_ > 1 ? own_end_[t] : bounds_[t + 1]; }
   std::size_t n_pairs() const {
     std::size_t k = 0;
     for (const auto& c : col_) k += c.size();
@@ -313,6 +327,7 @@ class NeighborList {
   int nt_ = 1;
   std::vector<std::vector<std::uint32_t>> col_;
   std::vector<std::vector<std::uint8_t>> touched_;
+  std::vector<std::size_t> own_end_;  // per thread: see own_end()
   std::vector<std::uint32_t> row_begin_, row_end_;
   std::vector<std::uint32_t> weight_;  // per particle, for balance()
   std::vector<std::uint64_t> work_;    // per row block: the sum of its weights
