@@ -87,8 +87,8 @@ class Simulation {
       done_[t].seq.store(seq, std::memory_order_release);
 #pragma omp master
       ts.first = PhaseTimers::Clock::now();
-      Gate g{nt, seq};
-      if (forces_in_region(t, nt, lo, hi, time + integrator.dt, ts, &g)) finish(t, lo, hi, ts);
+      Gate g{seq};
+      if (forces_in_region(t, nt, lo, hi, time + integrator.dt, ts, &g)) finish(lo, hi, ts);
       // Every thread reached the same verdict from the same numbers.
 #pragma omp master
       {
@@ -111,7 +111,7 @@ class Simulation {
 #pragma omp master
         ts.first = PhaseTimers::Clock::now();
         forces_in_region(t, nt, lo, hi, time + integrator.dt, ts);
-        finish(t, lo, hi, ts);
+        finish(lo, hi, ts);
       }
     }
     timers.add(Phase::pairs, ts.pairs_done - ts.first);
@@ -259,7 +259,6 @@ class Simulation {
   // combines the same published numbers in the same order, so all reach the
   // same verdict without a barrier.
   struct Gate {
-    int nt;
     long seq;
     bool known = false, go_on = false;
     typename Integrator::DriftStats all{};
@@ -270,13 +269,13 @@ class Simulation {
   // Looks whether every thread has published; with wait, spins until they
   // have. Returns whether the verdict is known.
   bool poll(Gate& g, bool wait) const {
-    for (int u = 0; u < g.nt; ++u)
-      while (done_[u].seq.load(std::memory_order_acquire) != g.seq) {
+    for (const Done& d : done_)
+      while (d.seq.load(std::memory_order_acquire) != g.seq) {
         if (!wait) return false;
         spin_pause();
       }
     typename Integrator::DriftStats all;
-    for (int u = 0; u < g.nt; ++u) combine_into(all, done_[u].stats);
+    for (const Done& d : done_) combine_into(all, d.stats);
     g.all = all;
     g.go_on = stable(all) && all.disp_bound() <= skin;
     g.known = true;
@@ -307,8 +306,7 @@ class Simulation {
   };
 
   // The second stage on the thread's own block.
-  void finish(int t, std::size_t lo, std::size_t hi, Stamps& ts) {
-    (void)t;
+  void finish(std::size_t lo, std::size_t hi, Stamps& ts) {
     integrator.second_half(p, box, lo, hi);
 #pragma omp master
     ts.end = PhaseTimers::Clock::now();

@@ -12,6 +12,11 @@
 
 namespace granular {
 
+// An integrator sums these in a local and returns a copy (`return
+// DriftStats(st)`), not the local itself: a named return value lives in the
+// caller's return slot, memory the stores to the particles' columns might
+// alias, so the sums would be reloaded and stored on every particle; a local
+// whose address never escapes stays in registers.
 struct DriftStats {
   double max_disp2 = 0.0;   // largest squared displacement since the neighbour-list build
   double next_disp2 = 0.0;  // second largest

@@ -62,10 +62,7 @@ struct Gear5 {
 
   DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next) const {
-    // A local, returned as a copy: the return slot is memory the stores to
-    // the particles' columns might alias, so sums kept there are reloaded and
-    // stored on every particle; a local whose address never escapes stays in
-    // registers.
+    // A local, returned as a copy (drift_stats.hpp: kept in registers).
     DriftStats st;
     const auto pose = pose_at(motion, t_next);
     auto [r2, r3, r4, r5, q0, q2, q3, q4, q5] = Columns(p);

@@ -34,10 +34,7 @@ struct Leapfrog {
   DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next) const {
     const double h = 0.5 * dt;
-    // A local, returned as a copy: the return slot is memory the stores to
-    // the particles' columns might alias, so sums kept there are reloaded and
-    // stored on every particle; a local whose address never escapes stays in
-    // registers.
+    // A local, returned as a copy (drift_stats.hpp: kept in registers).
     DriftStats st;
     const auto pose = pose_at(motion, t_next);
     for (std::size_t i = lo; i < hi; ++i) {
