@@ -216,3 +216,42 @@ TEST(Neighbors, TwoThreadBlocksBalanceWork) {
     ASSERT_LE((p.tq[i] - T[i]).norm(), 1e-12 * fscale) << "particle id " << p.id[i];
   }
 }
+
+// The rows a thread evaluates before the other threads have moved their
+// particles (NeighborList::own_end, engine/simulation.hpp's Gate) read only
+// its own block: a row before own_end(t) that listed a particle of another
+// block would read a position that thread may still be writing. And
+// own_end(t) is the first row that does read another block, so the overlap is
+// not given away. Periodic along every axis, so both blocks read the other.
+TEST(Neighbors, OwnRowsReadOnlyTheirBlock) {
+  for (int threads : {2, 3}) {
+    auto sim = random_cloud(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(8, 8, 24), {true, true, true}, 1500, 5);
+    omp_set_num_threads(threads);
+    sim.skin = 0.4;
+    sim.init();
+    const auto& nl = sim.neighbors();
+    ASSERT_EQ(nl.threads(), threads);
+    int reading_others = 0;
+    for (int t = 0; t < threads; ++t) {
+      const auto [lo, hi] = nl.block(t);
+      const std::size_t own = nl.own_end(t);
+      ASSERT_GE(own, lo);
+      ASSERT_LE(own, hi);
+      // Which rows of block t read outside it (rows live in the listing thread's columns).
+      std::vector<bool> reads_other(hi - lo, false);
+      nl.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
+        for (std::size_t i = a; i < e; ++i)
+          for (std::uint32_t k = nl.begin(i); k < nl.end(i); ++k)
+            if (col[k] < lo || col[k] >= hi) reads_other[i - lo] = true;
+      });
+      for (std::size_t i = lo; i < own; ++i) ASSERT_FALSE(reads_other[i - lo]) << "thread " << t << " row " << i;
+      if (own < hi) {
+        EXPECT_TRUE(reads_other[own - lo]) << "thread " << t << ": own_end " << own << " reads only its block";
+        ++reading_others;
+      }
+    }
+    // The test has teeth: in a periodic cloud every block reads its neighbours.
+    EXPECT_EQ(reading_others, threads);
+  }
+  omp_set_num_threads(1);
+}
