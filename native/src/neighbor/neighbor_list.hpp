@@ -27,11 +27,16 @@ class NeighborList {
   static constexpr std::size_t kChunk = 64;
   // The work of a particle's forces in units of one listed pair that is not
   // in contact (a distance test), for balancing the threads' blocks: a pair
-  // in contact costs about 9 more (the contact law; measured with per-thread
-  // timers in the shaken box, P-H law: 1.9 ns a listed pair, 17.5 ns a
-  // contact). The particle's own share (its integration, walls and ghost
-  // sums) comes from the caller: build(particle_weight).
-  static constexpr std::uint32_t kContactWeight = 9;
+  // in contact costs kContactWeight more. Per-thread timers in the shaken box
+  // (P-H law) give 1.9 ns a listed pair and 17.5 ns a contact, about 9; but
+  // the blocks balance best at 5, where the top block's dilute rows (many
+  // listed pairs, few contacts) weigh more than the timers' split says. Box
+  // 3 Hz, 2 threads, 6 interleaved rounds: 5.31 against 5.11·10⁷
+  // particle-steps/s at 9; drum #A the same within its rounds' spread
+  // (docs/speed_accuracy.md, stop 29). The particle's own share (its
+  // integration, walls and ghost sums) comes from the caller:
+  // build(particle_weight).
+  static constexpr std::uint32_t kContactWeight = 5;
 
   // Sorts the store by cell (reorder), then lists pairs. RangeFn(d_i, d_j) is
   // the contact law's interaction range; a template, so it inlines.
