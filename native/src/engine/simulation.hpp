@@ -352,8 +352,10 @@ class Simulation {
     auto rows = [&](auto&& eval) {
       nl_.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
         for (std::size_t r = a; r < e && !stop;) {
-          std::size_t r1 = std::min(e, r + kPollRows);
+          // Once the verdict is known, the rest of the piece in one go.
+          std::size_t r1 = e;
           if (gate && !gate->known) {
+            r1 = std::min(e, r + kPollRows);
             if (r >= own_end)
               poll(*gate, true);
             else if (!poll(*gate, false))
