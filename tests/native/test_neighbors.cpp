@@ -233,7 +233,8 @@ TEST(Neighbors, OwnRowsReadOnlyTheirBlock) {
     ASSERT_EQ(nl.threads(), threads);
     int reading_others = 0;
     for (int t = 0; t < threads; ++t) {
-      const auto [lo, hi] = nl.block(t);
+      // Plain variables, not a structured binding: the lambda below reads them.
+      const std::size_t lo = nl.block(t).first, hi = nl.block(t).second;
       const std::size_t own = nl.own_end(t);
       ASSERT_GE(own, lo);
       ASSERT_LE(own, hi);
