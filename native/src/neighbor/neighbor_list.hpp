@@ -272,8 +272,9 @@ class NeighborList {
   // chunk c (particles c*kChunk ...).
   bool touched(int t, std::size_t c) const { return touched_[t][c] != 0; }
   // The rows of block(t) before own_end(t) read only particles of block(t):
-  // thread t can evaluate them as soon as it has moved its own particles.
-  std::size_t own_end(int t) const { return nt_ > 1 ? own_end_[t] : bounds_[t + 1]; }
+  // thread t can evaluate them as soon as it has moved its own particles
+  // (the block's end when no row reads another block, as on one thread).
+  std::size_t own_end(int t) const { return own_end_[t]; }
   std::size_t n_pairs() const {
     std::size_t k = 0;
     for (const auto& c : col_) k += c.size();
