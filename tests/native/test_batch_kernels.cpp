@@ -4,8 +4,8 @@
 //   and zero-sliding ones;
 // - the batched pair loop (engine/simulation.hpp) against an O(N^2) sum of
 //   pair_force over every pair in range, periodic images included;
-// - the neighbour build's vector filter (neighbor/range_scan.hpp) against its
-//   scalar form.
+// - the neighbour build's vector pair test (neighbor/range_scan.hpp) against
+//   its scalar form and the definition.
 // Tolerances: the batch kernel may fuse a multiply and an add where the
 // scalar code does not (or the reverse), which moves the last bit; 1e-12 of
 // the force scale is a thousand times that and far below any physics.
@@ -17,7 +17,9 @@
 
 #include "contact/linear.hpp"
 #include "contact/pair_batch.hpp"
+#include "contact/poeschel_herrmann.hpp"
 #include "contact/rapaport.hpp"
+#include "contact/viscel.hpp"
 #include "engine/simulation.hpp"
 #include "integrate/leapfrog.hpp"
 #include "neighbor/range_scan.hpp"
@@ -242,41 +244,86 @@ TEST(BatchKernel, PairLoopMatchesDirectSum) {
   }
 }
 
-// The vector filter of the neighbour build keeps exactly the candidates the
-// scalar filter keeps, in the same order, for ranges of every length mod 8.
+// The neighbour build's pair test lists exactly the particles the scalar
+// form lists, in the same order, with the same count in contact, for ranges
+// of every length mod 8, with and without an excluded species; and both
+// agree with the definition (distance below factor (d_i + d_j) + skin, not
+// both excluded). Diameters and positions are drawn so that about half the
+// candidates are listed and a third of those in contact.
 template <int Dim>
-void check_range_scan(unsigned seed) {
-#ifndef GRANULAR_RANGE_SCAN_AVX512
-  GTEST_SKIP() << "built without AVX-512: only the scalar filter exists";
-#else
+void check_pair_scan(unsigned seed) {
   std::mt19937_64 gen(seed);
   std::uniform_real_distribution<double> u(-2.0, 2.0);
-  std::vector<double> x(Dim * 200);
+  std::vector<double> x(Dim * 200), d(200);
+  std::vector<std::int32_t> species(200);
   for (auto& c : x) c = u(gen);
-  std::size_t kept_total = 0;
+  for (std::size_t j = 0; j < d.size(); ++j) {
+    d[j] = 1.0 + 0.15 * u(gen);
+    species[j] = static_cast<std::int32_t>(gen() % 3);
+  }
+  std::size_t listed_total = 0, contacts_total = 0, excluded_total = 0;
   for (std::uint32_t b = 0; b < 40; ++b)
     for (std::uint32_t e = b; e < b + 40; ++e) {
       double xs[Dim];
       for (int a = 0; a < Dim; ++a) xs[a] = 0.5 * u(gen);
-      const double cut2 = 1.0 + 0.5 * u(gen);
-      std::vector<std::uint32_t> s(e - b + kScanSlack), v(e - b + kScanSlack);
-      const auto ns = range_scan_scalar<Dim>(x.data(), b, e, xs, cut2, s.data()) - s.data();
-      const auto nv = range_scan_avx512<Dim>(x.data(), b, e, xs, cut2, v.data()) - v.data();
+      const bool excluded_i = (b + e) % 2 == 0;
+      const PairScanRow row{xs, 1.0 + 0.15 * u(gen), 0.5 * (1.0 + 0.1 * (u(gen) + 2.0)), 0.4,
+                            excluded_i ? species.data() : nullptr, 2};
+      std::vector<std::uint32_t> s(e - b + kScanSlack);
+      std::uint32_t cs = 0;
+      const auto ns = pair_scan_scalar<Dim>(x.data(), d.data(), b, e, row, s.data(), cs) - s.data();
+#ifdef GRANULAR_RANGE_SCAN_AVX512
+      std::vector<std::uint32_t> v(e - b + kScanSlack);
+      std::uint32_t cv = 0;
+      const auto nv = pair_scan_avx512<Dim>(x.data(), d.data(), b, e, row, v.data(), cv) - v.data();
       ASSERT_EQ(ns, nv) << "range [" << b << ", " << e << ")";
+      ASSERT_EQ(cs, cv) << "range [" << b << ", " << e << ")";
       for (long k = 0; k < ns; ++k) ASSERT_EQ(s[k], v[k]);
-      // And both against the definition.
-      long direct = 0;
+#endif
+      // Both against the definition (distances far from the cutoffs by
+      // more than a rounding: a draw within 1e-12 would be a coincidence).
+      std::vector<std::uint32_t> direct;
+      std::uint32_t in_contact = 0;
       for (std::uint32_t j = b; j < e; ++j) {
         double r2 = 0.0;
         for (int a = 0; a < Dim; ++a) r2 += (xs[a] - x[Dim * j + a]) * (xs[a] - x[Dim * j + a]);
-        direct += r2 < cut2;
+        const double r = std::sqrt(r2), r0 = row.factor * (row.di + d[j]);
+        const bool both = excluded_i && species[j] == 2;
+        excluded_total += both && r < r0 + row.skin;
+        if (r < r0 + row.skin && !both) {
+          direct.push_back(j);
+          in_contact += r < r0;
+        }
       }
-      ASSERT_EQ(ns, direct);
-      kept_total += static_cast<std::size_t>(ns);
+      ASSERT_EQ(static_cast<std::size_t>(ns), direct.size()) << "range [" << b << ", " << e << ")";
+      for (long k = 0; k < ns; ++k) ASSERT_EQ(s[k], direct[static_cast<std::size_t>(k)]);
+      ASSERT_EQ(cs, in_contact);
+      listed_total += static_cast<std::size_t>(ns);
+      contacts_total += in_contact;
     }
-  EXPECT_GT(kept_total, 1000u);
-#endif
+  // The draws exercise every branch: pairs listed, in contact, excluded.
+  EXPECT_GT(listed_total, 5000u);
+  EXPECT_GT(contacts_total, 1000u);
+  EXPECT_GT(excluded_total, 200u);
 }
 
-TEST(RangeScan, VectorFilterMatchesScalar3D) { check_range_scan<3>(11); }
-TEST(RangeScan, VectorFilterMatchesScalar2D) { check_range_scan<2>(12); }
+TEST(PairScan, VectorMatchesScalarAndDefinition3D) { check_pair_scan<3>(11); }
+TEST(PairScan, VectorMatchesScalarAndDefinition2D) { check_pair_scan<2>(12); }
+
+// Every law's range has the form the pair scan tests: kRangeFactor (d_i + d_j).
+template <class Law>
+void check_range_form() {
+  std::mt19937_64 gen(5);
+  std::uniform_real_distribution<double> u(0.1, 3.0);
+  for (int k = 0; k < 1000; ++k) {
+    const double a = u(gen), b = u(gen);
+    ASSERT_EQ(Law::range(a, b), Law::kRangeFactor * (a + b));
+  }
+}
+TEST(PairScan, LawsRangeIsFactorTimesDiameterSum) {
+  check_range_form<RapaportLaw<3>>();
+  check_range_form<LinearLaw<3>>();
+  check_range_form<PoeschelHerrmannLaw<2, false>>();
+  check_range_form<ViscElLaw<3>>();
+  EXPECT_GT(RapaportLaw<3>::kRangeFactor, 0.5);  // the LJ cut 2^(1/6) sigma, beyond contact
+}

@@ -46,7 +46,10 @@ struct LinearLaw {
   double wall_coulomb_mu(int ci) const { return wall[ci].mu; }
 
   // Contact when r < R_i + R_j; a smooth wall has zero thickness (d_wall = 0).
-  GRANULAR_INLINE static double range(double di, double dj) { return 0.5 * (di + dj); }
+  // range = kRangeFactor * (d_i + d_j): the neighbour build tests it in vector
+  // lanes in this form (neighbor/range_scan.hpp).
+  static constexpr double kRangeFactor = 0.5;
+  GRANULAR_INLINE static double range(double di, double dj) { return kRangeFactor * (di + dj); }
 
   struct PairResult {
     V f;

@@ -47,7 +47,10 @@ struct PoeschelHerrmannLaw {
   double wall_coulomb_mu(int) const { return mu; }
 
   // Contact when |r_i - r_j| < R_i + R_j.
-  GRANULAR_INLINE static double range(double di, double dj) { return 0.5 * (di + dj); }
+  // range = kRangeFactor * (d_i + d_j): the neighbour build tests it in vector
+  // lanes in this form (neighbor/range_scan.hpp).
+  static constexpr double kRangeFactor = 0.5;
+  GRANULAR_INLINE static double range(double di, double dj) { return kRangeFactor * (di + dj); }
 
   struct PairResult {
     V f;   // force on i (j gets -f)

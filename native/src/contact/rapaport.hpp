@@ -44,7 +44,10 @@ struct RapaportLaw {
   double wall_coulomb_mu(int ci) const { return wall[ci].mu; }
 
   // Interaction range for particles (or particle and wall) of diameters d_i, d_j.
-  GRANULAR_INLINE static double range(double di, double dj) { return kCutFactor * 0.5 * (di + dj); }
+  // range = kRangeFactor * (d_i + d_j): the neighbour build tests it in vector
+  // lanes in this form (neighbor/range_scan.hpp).
+  static constexpr double kRangeFactor = kCutFactor * 0.5;
+  GRANULAR_INLINE static double range(double di, double dj) { return kRangeFactor * (di + dj); }
 
   // Eq. (1) + Eq. (2): the signed magnitude of f_n along r^ (positive pushes apart).
   GRANULAR_INLINE static double normal(double inv_r, double dij, double vn, double gamma_n) {

@@ -64,7 +64,10 @@ struct ViscElLaw {
     return 1.0 / (1.0 / a + 1.0 / b);
   }
 
-  GRANULAR_INLINE static double range(double di, double dj) { return 0.5 * (di + dj); }
+  // range = kRangeFactor * (d_i + d_j): the neighbour build tests it in vector
+  // lanes in this form (neighbor/range_scan.hpp).
+  static constexpr double kRangeFactor = 0.5;
+  GRANULAR_INLINE static double range(double di, double dj) { return kRangeFactor * (di + dj); }
 
   struct PairResult {
     V f;

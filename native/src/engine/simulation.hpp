@@ -139,7 +139,7 @@ class Simulation {
   // forces = false: f and tq are recomputed before anything reads them (the
   // rebuild inside a step, after the drift), so the reorder skips them.
   void rebuild(bool forces = true) {
-    nl_.build(p, box, skin, [](double a, double b) { return Law::range(a, b); }, exclude_species,
+    nl_.build(p, box, skin, Law::kRangeFactor, exclude_species,
               forces, kParticleWeight);
   }
 

@@ -38,9 +38,10 @@ class NeighborList {
   // build(particle_weight).
   static constexpr std::uint32_t kContactWeight = 5;
 
-  // Sorts the store by cell (reorder), then lists pairs. RangeFn(d_i, d_j) is
-  // the contact law's interaction range; a template, so it inlines.
-  // particle_weight: a particle's work besides its pairs (above). Thread t
+  // Sorts the store by cell (reorder), then lists pairs. The contact law's
+  // interaction range is range_factor * (d_i + d_j) (every law's form,
+  // contact/*.hpp kRangeFactor), so that the vector scan can test it lane by
+  // lane (range_scan.hpp). particle_weight: a particle's work besides its pairs (above). Thread t
   // lists the rows of row_block(t) (equal particle counts) into its own
   // column array, so nothing is copied between threads. Then the store is cut
   // into the blocks the threads own for the step, block(t), of equal expected
@@ -67,9 +68,9 @@ class NeighborList {
   // drums, half big and half small) there is one class and nothing changes.
   static constexpr double kLargeRatio = 1.5;
   static constexpr std::size_t kLargeShare = 64;
-  template <class RangeFn>
-  void build(ParticleStore<Dim>& p, const Box<Dim>& box, double skin, RangeFn range,
+  void build(ParticleStore<Dim>& p, const Box<Dim>& box, double skin, double range_factor,
              int exclude_species = -1, bool forces = true, std::uint32_t particle_weight = 1) {
+    const auto range = [range_factor](double a, double b) { return range_factor * (a + b); };
     skin_ = skin;
     const std::size_t n = p.size();
     nt_ = omp_get_max_threads();
@@ -131,25 +132,28 @@ class NeighborList {
       auto room = [&](std::uint32_t k) {
         if (out.size() < n_out + k + kScanSlack) out.resize(std::max(2 * out.size(), n_out + k + kScanSlack));
       };
-      auto list_large = [&](std::size_t i) {
+      // Row i's pairs among [b, e) by the plain minimum-image test: for the
+      // few large rows and a periodic axis of one cell (where only the
+      // minimum image finds the nearest copy of j).
+      auto scan_min_image = [&](std::size_t i, std::uint32_t b, std::uint32_t e, std::uint32_t& contacts) {
         const V xi = x[i];
         const double di = d[i];
         const bool excluded_i = species[i] == exclude_species;
+        room(e - b);
+        for (std::uint32_t j = b; j < e; ++j) {
+          const double r0 = range(di, d[j]), rc = r0 + skin;
+          const double r2 = box.min_image(xi - x[j]).squaredNorm();
+          const bool hit = (r2 < rc * rc) & !(excluded_i & (species[j] == exclude_species));
+          out[n_out] = j;
+          n_out += hit;
+          contacts += hit & (r2 < r0 * r0);
+        }
+      };
+      auto list_large = [&](std::size_t i) {
         std::uint32_t contacts = 0;
-        auto scan = [&](std::uint32_t b, std::uint32_t e) {
-          room(e - b);
-          for (std::uint32_t j = b; j < e; ++j) {
-            const double r0 = range(di, d[j]), rc = r0 + skin;
-            const double r2 = box.min_image(xi - x[j]).squaredNorm();
-            const bool hit = (r2 < rc * rc) & !(excluded_i & (species[j] == exclude_species));
-            out[n_out] = j;
-            n_out += hit;
-            contacts += hit & (r2 < r0 * r0);
-          }
-        };
-        cells_.for_cells_within(xi, range(di, d_small) + skin,
-                                [&](int c) { scan(cells_.begin(c), cells_.end(c)); });
-        scan(static_cast<std::uint32_t>(i + 1), large_end);
+        cells_.for_cells_within(x[i], range(d[i], d_small) + skin,
+                                [&](int c) { scan_min_image(i, cells_.begin(c), cells_.end(c), contacts); });
+        scan_min_image(i, static_cast<std::uint32_t>(i + 1), large_end, contacts);
         return contacts;
       };
       // A row of a particle of the cells: its half stencil, merged into runs.
@@ -172,40 +176,22 @@ class NeighborList {
         const V xi = x[i];
         const double di = d[i];
         const bool excluded_i = species[i] == exclude_species;
-        // The filter's cutoff: the largest i can have with a particle of the
-        // cells (range grows with d_j).
-        const double cut = range(di, d_small) + skin;
-        const double cut2 = cut * cut * (1.0 + 1e-12);
+        PairScanRow row{nullptr, di, range_factor, skin, excluded_i ? species : nullptr, exclude_species};
         std::uint32_t contacts = 0;
         for (int s = 0; s < n_runs; ++s) {
           // Own cell (the first run): only j > i; other runs: all of them.
           const std::uint32_t b = s == 0 ? static_cast<std::uint32_t>(i + 1) : run_b[s];
           const std::uint32_t e = run_e[s];
           if (b >= e) continue;
+          if (collapsed) {
+            scan_min_image(i, b, e, contacts);
+            continue;
+          }
           room(e - b);
           std::uint32_t* const o = out.data() + n_out;
-          const V sh = run_shift[s];
-          std::uint32_t* o_end;
-          if (collapsed) {
-            o_end = o;
-            for (std::uint32_t j = b; j < e; ++j) *o_end++ = j;
-          } else {
-            const V xs = xi - sh;
-            o_end = range_scan<Dim>(xflat, b, e, xs.data(), cut2, o);
-          }
-          // The exact test on the survivors, compacted in place.
-          std::uint32_t* w = o;
-          for (const std::uint32_t* q = o; q < o_end; ++q) {
-            const std::uint32_t j = *q;
-            const double r0 = range(di, d[j]), rc = r0 + skin;
-            const V dr = collapsed ? box.min_image(xi - x[j]) : V((xi - x[j]) - sh);
-            const double r2 = dr.squaredNorm();
-            const bool hit = (r2 < rc * rc) & !(excluded_i & (species[j] == exclude_species));
-            *w = j;
-            w += hit;
-            contacts += hit & (r2 < r0 * r0);
-          }
-          n_out += static_cast<std::size_t>(w - o);
+          const V xs = xi - run_shift[s];
+          row.xs = xs.data();
+          n_out += static_cast<std::size_t>(pair_scan<Dim>(xflat, d, b, e, row, o, contacts) - o);
         }
         return contacts;
       };

@@ -1,43 +1,62 @@
-// The neighbour-list build's inner loop: of the particles in a contiguous
-// range [b, e) of the cell-sorted store, write out those within a distance
-// of x_i, taking the periodic image x_j + shift. About one candidate in ten
-// is kept, so the loop is written to keep the test out of the branch
-// predictor: with AVX-512, eight candidates at a time and a compress-store
-// of the ones kept; otherwise one at a time, always writing the candidate and
-// advancing the output only past a kept one. Both give the same particles in
-// the same order (tests/native/test_neighbors.cpp runs both).
+// The neighbour build's inner loop: of the particles in a contiguous range
+// [b, e) of the cell-sorted store, write out those that make a pair with
+// particle i: distance to x_i (taking the periodic image x_j + shift) below
+// range(d_i, d_j) + skin, where every contact law's range is
+// factor * (d_i + d_j) (contact/*.hpp, kRangeFactor), and not both of the
+// excluded species. It also counts the pairs in contact now (distance below
+// range), for the threads' block cut. About one candidate in seven is kept,
+// so the loop keeps the test out of the branch predictor: with AVX-512,
+// eight candidates at a time, the whole test in the vector lanes and a
+// compress-store of the ones kept; otherwise one at a time, always writing
+// the candidate and advancing the output only past a kept one. Both give the
+// same particles in the same order (tests/native/test_batch_kernels.cpp).
 //
-// The distance here is a filter, not the contact test: the caller passes the
-// largest cutoff i can have with any partner and applies the exact one to the
-// survivors, so a last-bit difference from fused multiply-adds cannot drop a
-// pair (the caller's cutoff carries a relative margin of 1e-12).
+// Both forms compute r^2 as fma(dz, dz, fma(dy, dy, dx * dx)) and the
+// cutoffs as the contact law does, so they agree to the bit; the pair loop
+// tests contact itself, so a pair listed or not within a rounding of the
+// list's cutoff (range + skin, outside contact) changes no force.
 #pragma once
+#include <cmath>
 #include <cstdint>
 
 #include "core/space.hpp"
 
-#if defined(__AVX512F__) && defined(__BMI2__) && !defined(GRANULAR_NO_SIMD)
+#if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__BMI2__) && !defined(GRANULAR_NO_SIMD)
 #include <immintrin.h>
 #define GRANULAR_RANGE_SCAN_AVX512 1
 #endif
 
 namespace granular {
 
-// x: the store's positions as Dim doubles per particle. xs = x_i - shift.
-// Returns the new end of out. out must have room for e - b + kScanSlack
-// entries (the vector form stores whole vectors past the last kept one).
+// The pair test's parameters for row i.
+struct PairScanRow {
+  const double* xs;                 // x_i - shift, Dim doubles
+  double di;                        // d_i
+  double factor;                    // range(d_i, d_j) = factor * (d_i + d_j)
+  double skin;
+  const std::int32_t* species;      // the store's species, or null when i is not of the excluded species
+  std::int32_t excluded;            // the excluded species (pairs with both of it are not listed)
+};
+
+// x, d: the store's positions (Dim doubles per particle) and diameters.
+// Returns the new end of out and adds the pairs in contact to contacts. out
+// must have room for e - b + kScanSlack entries (the vector form stores
+// whole vectors past the last kept one).
 inline constexpr std::uint32_t kScanSlack = 8;
 template <int Dim>
-GRANULAR_INLINE std::uint32_t* range_scan_scalar(const double* x, std::uint32_t b, std::uint32_t e, const double* xs,
-                                                 double cut2, std::uint32_t* out) {
+GRANULAR_INLINE std::uint32_t* pair_scan_scalar(const double* x, const double* d, std::uint32_t b, std::uint32_t e,
+                                                const PairScanRow& row, std::uint32_t* out, std::uint32_t& contacts) {
   for (std::uint32_t j = b; j < e; ++j) {
     double r2 = 0.0;
     for (int a = 0; a < Dim; ++a) {
-      const double da = xs[a] - x[Dim * j + a];
-      r2 += da * da;
+      const double da = row.xs[a] - x[Dim * j + a];
+      r2 = std::fma(da, da, r2);
     }
+    const double r0 = row.factor * (row.di + d[j]), rc = r0 + row.skin;
+    const bool hit = (r2 < rc * rc) & !(row.species && row.species[j] == row.excluded);
     *out = j;
-    out += r2 < cut2;
+    out += hit;
+    contacts += hit & (r2 < r0 * r0);
   }
   return out;
 }
@@ -74,11 +93,12 @@ GRANULAR_INLINE void load_coords8<2>(const double* p, __mmask8 m, __m512d (&c)[2
 }
 
 template <int Dim>
-GRANULAR_INLINE std::uint32_t* range_scan_avx512(const double* x, std::uint32_t b, std::uint32_t e, const double* xs,
-                                                 double cut2, std::uint32_t* out) {
+GRANULAR_INLINE std::uint32_t* pair_scan_avx512(const double* x, const double* d, std::uint32_t b, std::uint32_t e,
+                                                const PairScanRow& row, std::uint32_t* out, std::uint32_t& contacts) {
   __m512d xv[Dim];
-  for (int a = 0; a < Dim; ++a) xv[a] = _mm512_set1_pd(xs[a]);
-  const __m512d cut = _mm512_set1_pd(cut2);
+  for (int a = 0; a < Dim; ++a) xv[a] = _mm512_set1_pd(row.xs[a]);
+  const __m512d factor = _mm512_set1_pd(row.factor), di = _mm512_set1_pd(row.di), skin = _mm512_set1_pd(row.skin);
+  const __m256i excluded = _mm256_set1_epi32(row.excluded);
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   for (std::uint32_t j0 = b; j0 < e; j0 += 8) {
     const std::uint32_t left = e - j0;
@@ -90,7 +110,14 @@ GRANULAR_INLINE std::uint32_t* range_scan_avx512(const double* x, std::uint32_t 
       const __m512d da = _mm512_sub_pd(xv[a], c[a]);
       r2 = _mm512_fmadd_pd(da, da, r2);
     }
-    const __mmask8 keep = _mm512_mask_cmp_pd_mask(m, r2, cut, _CMP_LT_OQ);
+    const __m512d r0 = _mm512_mul_pd(factor, _mm512_add_pd(di, _mm512_maskz_loadu_pd(m, d + j0)));
+    const __m512d rc = _mm512_add_pd(r0, skin);
+    __mmask8 keep = _mm512_mask_cmp_pd_mask(m, r2, _mm512_mul_pd(rc, rc), _CMP_LT_OQ);
+    if (row.species)
+      keep &= static_cast<__mmask8>(
+          ~_mm256_cmpeq_epi32_mask(_mm256_maskz_loadu_epi32(m, row.species + j0), excluded));
+    contacts += static_cast<std::uint32_t>(
+        __builtin_popcount(_mm512_mask_cmp_pd_mask(keep, r2, _mm512_mul_pd(r0, r0), _CMP_LT_OQ)));
     const __m256i j = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(j0)), lane);
     // Compress in a register and store all eight lanes: a compress straight
     // to memory is microcoded on some processors (AMD Zen 4) and far slower.
@@ -101,14 +128,14 @@ GRANULAR_INLINE std::uint32_t* range_scan_avx512(const double* x, std::uint32_t 
 }
 #endif
 
-// Candidates j in [b, e) with |x_i - shift - x_j|^2 < cut2 (a filter: see above).
+// The pairs of row i among [b, e) (above).
 template <int Dim>
-GRANULAR_INLINE std::uint32_t* range_scan(const double* x, std::uint32_t b, std::uint32_t e, const double* xs,
-                                          double cut2, std::uint32_t* out) {
+GRANULAR_INLINE std::uint32_t* pair_scan(const double* x, const double* d, std::uint32_t b, std::uint32_t e,
+                                         const PairScanRow& row, std::uint32_t* out, std::uint32_t& contacts) {
 #ifdef GRANULAR_RANGE_SCAN_AVX512
-  return range_scan_avx512<Dim>(x, b, e, xs, cut2, out);
+  return pair_scan_avx512<Dim>(x, d, b, e, row, out, contacts);
 #else
-  return range_scan_scalar<Dim>(x, b, e, xs, cut2, out);
+  return pair_scan_scalar<Dim>(x, d, b, e, row, out, contacts);
 #endif
 }
 
