@@ -41,8 +41,8 @@ class NeighborList {
   // Sorts the store by cell (reorder), then lists pairs. The contact law's
   // interaction range is range_factor * (d_i + d_j) (every law's form,
   // contact/*.hpp kRangeFactor), so that the vector scan can test it lane by
-  // lane (range_scan.hpp). particle_weight: a particle's work besides its pairs (above). Thread t
-  // lists the rows of row_block(t) (equal particle counts) into its own
+  // lane (range_scan.hpp). particle_weight: a particle's work besides its
+  // pairs (above). Thread t lists the rows of row_block(t) (equal particle counts) into its own
   // column array, so nothing is copied between threads. Then the store is cut
   // into the blocks the threads own for the step, block(t), of equal expected
   // work (balance()): in the shaken box the packed bottom has 1.75 times the
@@ -82,7 +82,7 @@ class NeighborList {
     weight_.resize(n);
     work_.resize(nt_);
     x_ref_.resize(n);
-    static_assert(sizeof(V) == Dim * sizeof(double), "range_scan reads the positions as packed doubles");
+    static_assert(sizeof(V) == Dim * sizeof(double), "pair_scan reads the positions as packed doubles");
     double d_max = 0.0;
     for (double dj : p.d) d_max = std::max(d_max, dj);
     // The size classes (above): d_small is the largest diameter that is not large.
