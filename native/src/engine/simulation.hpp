@@ -139,8 +139,7 @@ class Simulation {
   // forces = false: f and tq are recomputed before anything reads them (the
   // rebuild inside a step, after the drift), so the reorder skips them.
   void rebuild(bool forces = true) {
-    nl_.build(p, box, skin, Law::kRangeFactor, exclude_species,
-              forces, kParticleWeight);
+    nl_.build(p, box, skin, Law::kRangeFactor, exclude_species, forces, kParticleWeight);
   }
 
   // A particle's work in a step besides its pairs, in listed pairs (the

@@ -42,8 +42,8 @@ class NeighborList {
   // interaction range is range_factor * (d_i + d_j) (every law's form,
   // contact/*.hpp kRangeFactor), so that the vector scan can test it lane by
   // lane (range_scan.hpp). particle_weight: a particle's work besides its
-  // pairs (above). Thread t lists the rows of row_block(t) (equal particle counts) into its own
-  // column array, so nothing is copied between threads. Then the store is cut
+  // pairs (above). Thread t lists the rows of row_block(t) (equal particle
+  // counts) into its own column array, so nothing is copied between threads. Then the store is cut
   // into the blocks the threads own for the step, block(t), of equal expected
   // work (balance()): in the shaken box the packed bottom has 1.75 times the
   // contacts of the fluidised top for the same number of particles, and equal
