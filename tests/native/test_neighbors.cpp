@@ -256,3 +256,116 @@ TEST(Neighbors, OwnRowsReadOnlyTheirBlock) {
   }
   omp_set_num_threads(1);
 }
+
+namespace {
+
+// fast_pairs_listed with the fast particles given by hand.
+bool fast_ok(const FreeSim& sim, std::vector<std::uint32_t> fast) {
+  double disp_max = 0.0;
+  for (std::size_t i = 0; i < sim.p.size(); ++i)
+    disp_max = std::max(disp_max, sim.box.min_image(sim.p.x[i] - sim.neighbors().reference_positions()[i]).norm());
+  return sim.neighbors().fast_pairs_listed(sim.p, sim.box, Law3::kRangeFactor, -1, disp_max, [&](auto&& f) {
+    for (const std::uint32_t i : fast)
+      if (!f(i)) return false;
+    return true;
+  });
+}
+
+}  // namespace
+
+// Past the two-largest test the list is kept only while no pair in range is
+// missing from it: two particles that were just beyond range + skin and moved
+// towards each other by more than skin/2 each are in range and unlisted (a
+// rebuild), the same moves apart or side by side leave nothing missing. Across
+// the periodic boundary too.
+TEST(Neighbors, FastParticlesKeepTheListOnlyWithNoPairMissing) {
+  for (const double y0 : {0.0, 7.6}) {  // in the middle; straddling y = +-8
+    FreeSim sim;
+    sim.box.lo = {-8, -8, -8};
+    sim.box.hi = {8, 8, 8};
+    sim.box.periodic = {false, true, false};
+    sim.box.finalize();
+    const double skin = 0.4, r0 = Law3::range(1.0, 1.0), gap = r0 + skin + 0.05;
+    for (int k = 0; k < 2; ++k) {
+      Eigen::Vector3d x(0, y0 + (k ? gap : 0.0), 0);
+      sim.box.wrap(x);
+      add_sphere(sim, x, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 1.0, 0);
+    }
+    add_sphere(sim, Eigen::Vector3d(5, 0, 5), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 1.0, 0);
+    omp_set_num_threads(1);
+    sim.skin = skin;
+    sim.init();
+    ASSERT_EQ(sim.neighbors().n_pairs(), 0u);
+    // Find the pair's slots (the build sorts the store).
+    std::uint32_t a = 0, b = 0;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      if (sim.p.id[i] == 0) a = i;
+      if (sim.p.id[i] == 1) b = i;
+    }
+    const std::vector<Eigen::Vector3d> x0 = sim.p.x;
+    auto move = [&](double da, double db) {
+      sim.p.x = x0;
+      sim.p.x[a].y() += da;
+      sim.p.x[b].y() += db;
+      sim.box.wrap(sim.p.x[a]);
+      sim.box.wrap(sim.p.x[b]);
+    };
+    move(0.3, -0.3);  // towards each other: 0.6 > skin closer, in range
+    ASSERT_LT(sim.box.min_image(sim.p.x[a] - sim.p.x[b]).norm(), r0);
+    EXPECT_FALSE(fast_ok(sim, {a, b})) << "y0 " << y0;
+    EXPECT_FALSE(fast_ok(sim, {b})) << "y0 " << y0;  // either fast particle finds the pair
+    move(-0.3, 0.3);  // apart
+    EXPECT_TRUE(fast_ok(sim, {a, b})) << "y0 " << y0;
+    move(0.3, 0.3);  // side by side: no separation changes
+    EXPECT_TRUE(fast_ok(sim, {a, b})) << "y0 " << y0;
+    move(0.3, -0.1);  // b is slow, a fast: 0.4 closer, still out of range
+    EXPECT_TRUE(fast_ok(sim, {a})) << "y0 " << y0;
+  }
+}
+
+// Head-on pairs that start just beyond range + skin pass the two-largest
+// test before they come into range: the list is kept past it (else this test
+// would not test it) and must be rebuilt by the step that brings them into
+// range. Every pair in range is listed after every step, on one and two
+// threads; one pair meets across the periodic boundary.
+TEST(Neighbors, ListKeptPastTheSkinTestMissesNoPair) {
+  for (const int threads : {1, 2}) {
+    // A resting cloud below z = 0, the pairs above it.
+    auto sim = random_cloud({-8, -12, -8}, {8, 12, 0}, {true, true, false}, 500, 11, true);
+    sim.box.hi.z() = 8;
+    sim.box.finalize();
+    const double skin = 0.3, gap = Law3::range(1.0, 1.0) + skin + 0.02;
+    for (const double x0 : {-4.0, 0.0, 8.0 - 0.5 * gap}) {  // the last straddles x = +-8
+      for (int k = 0; k < 2; ++k) {
+        Eigen::Vector3d x(x0 + (k ? gap : 0.0), 4.0 * x0, 4.0);
+        sim.box.wrap(x);
+        add_sphere(sim, x, Eigen::Vector3d(k ? -1.0 : 1.0, 0, 0), Eigen::Vector3d::Zero(), 1.0, 0);
+      }
+    }
+    sim.law = Law3::from_paper(5.0, 2, 2, 2, 2, 0.5);
+    sim.skin = skin;
+    sim.integrator.dt = 0.002;
+    omp_set_num_threads(threads);
+    sim.init();
+    auto range = [](double a, double b) { return Law3::range(a, b); };
+    int kept_past = 0;
+    for (int s = 0; s < 150; ++s) {
+      const long builds = sim.neighbors().builds();
+      sim.step();
+      if (sim.neighbors().builds() == builds) {
+        std::vector<double> disp;
+        for (std::size_t i = 0; i < sim.p.size(); ++i)
+          disp.push_back(sim.box.min_image(sim.p.x[i] - sim.neighbors().reference_positions()[i]).norm());
+        std::partial_sort(disp.begin(), disp.begin() + 2, disp.end(), std::greater<>());
+        kept_past += disp[0] + disp[1] > sim.skin;
+      }
+      const auto in_range = brute_force_pairs(sim.p, sim.box, 0.0, range);
+      const auto listed = sim.neighbors().pairs_by_id(sim.p);
+      for (const auto& pr : in_range)
+        ASSERT_TRUE(std::binary_search(listed.begin(), listed.end(), pr))
+            << "step " << s << ", " << threads << " thread(s): pair " << pr.first << "-" << pr.second
+            << " in range but not listed";
+    }
+    EXPECT_GT(kept_past, 3) << threads << " thread(s)";
+  }
+}

@@ -83,7 +83,10 @@ class Simulation {
     {
       const int t = omp_get_thread_num();
       const auto [lo, hi] = nl_.block(t);
-      done_[t].stats = integrator.first_half(p, box, xref, lo, hi, time + integrator.dt);
+      Done& dn = done_[t];
+      dn.stats = integrator.first_half(
+          p, box, xref, lo, hi, time + integrator.dt,
+          Integrator::DriftStats::naming_fast(0.5 * skin, dn.fast.data(), static_cast<std::uint32_t>(dn.fast.size())));
       done_[t].seq.store(seq, std::memory_order_release);
 #pragma omp master
       ts.first = PhaseTimers::Clock::now();
@@ -232,6 +235,7 @@ class Simulation {
     if constexpr (HasPairBatch<Law, Dim>::value)
       if (static_cast<int>(batch_.size()) != nt) batch_.resize(nt);
     if (static_cast<int>(done_.size()) != nt) std::vector<Done>(static_cast<std::size_t>(nt)).swap(done_);
+    for (Done& d : done_) d.fast.resize(max_fast());
   }
 
   // What a thread publishes after its first stage: its drift statistics, then
@@ -241,12 +245,14 @@ class Simulation {
   struct alignas(64) Done {
     std::atomic<long> seq{0};
     typename Integrator::DriftStats stats;
+    std::vector<std::uint32_t> fast;  // the buffer that stats.fast names the fast particles into
     Done() = default;
     // Copied with the simulation (between steps, when no thread writes it).
-    Done(const Done& o) : seq(o.seq.load(std::memory_order_relaxed)), stats(o.stats) {}
+    Done(const Done& o) : seq(o.seq.load(std::memory_order_relaxed)), stats(o.stats), fast(o.fast) {}
     Done& operator=(const Done& o) {
       seq.store(o.seq.load(std::memory_order_relaxed), std::memory_order_relaxed);
       stats = o.stats;
+      fast = o.fast;
       return *this;
     }
   };
@@ -265,6 +271,28 @@ class Simulation {
   // Rows evaluated between two looks at the other threads' flags.
   static constexpr std::size_t kPollRows = 16;
 
+  // Past the two-largest test the list stays in use while no more than
+  // n / kFastShare particles have moved more than skin/2 (at most skin) and
+  // every pair of those in range is listed (NeighborList::fast_pairs_listed).
+  // The largest of 10^5 particles reaches skin/2 sooner than the largest of
+  // 10^3, so the two-largest test alone rebuilt the long drum 1.4 times as
+  // often per step; a share puts both sizes at the same quantile.
+  // Drum #A at 103 840 particles, 0.5 rotations: 281 builds, 183 at a share
+  // of 256, 171 at 64; 968 particles: 962, 817, 644 (docs/speed_accuracy.md).
+  static constexpr std::size_t kFastShare = 64;
+  std::size_t max_fast() const { return p.size() / kFastShare; }
+  // Every thread runs it on the same published numbers: the same verdict.
+  bool fast_pairs_listed(const typename Integrator::DriftStats& all) const {
+    if (all.n_fast > max_fast() || !(all.max_disp2 <= skin * skin)) return false;
+    return nl_.fast_pairs_listed(p, box, Law::kRangeFactor, exclude_species, std::sqrt(all.max_disp2),
+                                 [&](auto&& f) {
+                                   for (const Done& d : done_)
+                                     for (std::uint32_t k = 0; k < d.stats.n_fast; ++k)
+                                       if (!f(d.stats.fast[k])) return false;
+                                   return true;
+                                 });
+  }
+
   // Looks whether every thread has published; with wait, spins until they
   // have. Returns whether the verdict is known.
   bool poll(Gate& g, bool wait) const {
@@ -276,7 +304,7 @@ class Simulation {
     typename Integrator::DriftStats all;
     for (const Done& d : done_) combine_into(all, d.stats);
     g.all = all;
-    g.go_on = stable(all) && all.disp_bound() <= skin;
+    g.go_on = stable(all) && (all.disp_bound() <= skin || fast_pairs_listed(all));
     g.known = true;
     return true;
   }
@@ -512,6 +540,7 @@ class Simulation {
     if (!(s.max_step2 <= st.max_step2)) st.max_step2 = s.max_step2;
     if (!(s.next_disp2 <= st.next_disp2)) st.push_disp(s.next_disp2);
     if (!(s.max_disp2 <= st.next_disp2)) st.push_disp(s.max_disp2);
+    st.n_fast += s.n_fast;
   }
 
   bool stable(const typename Integrator::DriftStats& st) const {

@@ -61,9 +61,9 @@ struct Gear5 {
   };
 
   DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref, std::size_t lo,
-                        std::size_t hi, double t_next) const {
+                        std::size_t hi, double t_next, const DriftStats& seed = DriftStats()) const {
     // A local, returned as a copy (drift_stats.hpp: kept in registers).
-    DriftStats st;
+    DriftStats st = seed;
     const auto pose = pose_at(motion, t_next);
     auto [r2, r3, r4, r5, q0, q2, q3, q4, q5] = Columns(p);
     for (std::size_t i = lo; i < hi; ++i) {
@@ -83,7 +83,7 @@ struct Gear5 {
       q2[i] += 3.0 * q3[i] + 6.0 * q4[i] + 10.0 * q5[i];
       q3[i] += 4.0 * q4[i] + 10.0 * q5[i];
       q4[i] += 5.0 * q5[i];
-      st.add(box, step.squaredNorm(), x, x_ref[i]);
+      st.add(box, i, step.squaredNorm(), x, x_ref[i]);
     }
     return DriftStats(st);
   }

@@ -30,12 +30,13 @@ struct Leapfrog {
 
   void start(ParticleStore<Dim>&) const {}
 
-  // Stage 1 on particles [lo, hi); t_next = time at the end of the step.
+  // Stage 1 on particles [lo, hi); t_next = time at the end of the step. The
+  // statistics start from seed (where to name fast particles: drift_stats.hpp).
   DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref, std::size_t lo,
-                        std::size_t hi, double t_next) const {
+                        std::size_t hi, double t_next, const DriftStats& seed = DriftStats()) const {
     const double h = 0.5 * dt;
     // A local, returned as a copy (drift_stats.hpp: kept in registers).
-    DriftStats st;
+    DriftStats st = seed;
     const auto pose = pose_at(motion, t_next);
     for (std::size_t i = lo; i < hi; ++i) {
       if (place_if_wall(motion, pose, p, i, box, x_ref[i], st)) continue;
@@ -49,7 +50,7 @@ struct Leapfrog {
       V x = p.x[i] + step;
       box.wrap(x);
       p.x[i] = x;
-      st.add(box, step.squaredNorm(), x, x_ref[i]);
+      st.add(box, i, step.squaredNorm(), x, x_ref[i]);
     }
     return DriftStats(st);
   }

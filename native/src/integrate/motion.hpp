@@ -107,7 +107,7 @@ inline bool place_if_wall(const Motion& motion, const Pose& pose, ParticleStore<
     if (p.species[i] == kWallSpecies) {
       const Vec<Dim> old = p.x[i];
       motion.place(p, i, pose);
-      st.add(box, (p.x[i] - old).squaredNorm(), p.x[i], x_ref);
+      st.add(box, i, (p.x[i] - old).squaredNorm(), p.x[i], x_ref);
       return true;
     }
   }

@@ -97,6 +97,7 @@ class NeighborList {
       d_small = d_max;
     }
     n_large_ = d_large < d_max ? n_large : 0;
+    d_max_ = d_max;
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
     p.prepare_reorder();
 #pragma omp parallel num_threads(nt_)
@@ -272,6 +273,47 @@ class NeighborList {
   long builds() const { return builds_; }
   const std::vector<V>& reference_positions() const { return x_ref_; }
 
+  // Whether every pair in range now is listed, once the two largest
+  // displacements since the build add up to more than the skin
+  // (integrate/drift_stats.hpp). A pair of two particles that each moved at
+  // most skin/2 was listed if it is in range now; every other pair involves a
+  // fast particle, one that moved more than skin/2. for_each_fast(f) calls
+  // f(i) for every fast particle i (and stops when f returns false);
+  // disp_max is the largest displacement of any particle. Each pair of a fast
+  // particle in range now (range_factor (d_i + d_j)) is tested against the
+  // build's own rule: listed if closer than range + skin at the reference
+  // positions. Both tests leave a margin of 1e-9 for rounding (the build's
+  // separations come from shifted positions, not Box::min_image), so that a
+  // pair on the edge counts as unlisted and calls for a rebuild. The
+  // candidates come from the build's cells within reach: a particle within
+  // range of x_i now was within range + disp_max of it at the build.
+  template <class ForEachFast>
+  bool fast_pairs_listed(const ParticleStore<Dim>& p, const Box<Dim>& box, double range_factor,
+                         int exclude_species, double disp_max, ForEachFast&& for_each_fast) const {
+    constexpr double kMargin = 1e-9;
+    const std::uint32_t lb = cells_.begin(cells_.large()), le = cells_.end(cells_.large());
+    return for_each_fast([&](std::uint32_t i) {
+      const V xi = p.x[i], ri = x_ref_[i];
+      const double di = p.d[i];
+      const bool excluded_i = p.species[i] == exclude_species;
+      bool ok = true;
+      auto test = [&](std::uint32_t b, std::uint32_t e) {
+        for (std::uint32_t j = b; j < e && ok; ++j) {
+          if (j == i || (excluded_i && p.species[j] == exclude_species)) continue;
+          const double r0 = range_factor * (di + p.d[j]);
+          if (box.min_image(xi - p.x[j]).squaredNorm() >= (1.0 + kMargin) * (r0 * r0)) continue;
+          const double rl = r0 + skin_;
+          ok = box.min_image(ri - x_ref_[j]).squaredNorm() < (1.0 - kMargin) * (rl * rl);
+        }
+      };
+      cells_.for_cells_within(xi, range_factor * (di + d_max_) + disp_max, [&](int c) {
+        if (ok) test(cells_.begin(c), cells_.end(c));
+      });
+      test(lb, le);
+      return ok;
+    });
+  }
+
   // Pairs as (id_i, id_j) with id_i < id_j, sorted: for comparison with the oracle.
   std::vector<std::pair<std::int64_t, std::int64_t>> pairs_by_id(const ParticleStore<Dim>& p) const {
     std::vector<std::pair<std::int64_t, std::int64_t>> out;
@@ -326,6 +368,7 @@ class NeighborList {
   std::vector<std::size_t> bounds_{0, 0};  // block(t) = [bounds_[t], bounds_[t + 1])
   std::vector<V> x_ref_;
   double skin_ = 0.0;
+  double d_max_ = 0.0;
   std::size_t n_large_ = 0;
   long builds_ = 0;
 };
