@@ -87,7 +87,7 @@ class Simulation {
       dn.stats = integrator.first_half(
           p, box, xref, lo, hi, time + integrator.dt,
           Integrator::DriftStats::naming_fast(0.5 * skin, dn.fast.data(), static_cast<std::uint32_t>(dn.fast.size())));
-      done_[t].seq.store(seq, std::memory_order_release);
+      dn.seq.store(seq, std::memory_order_release);
 #pragma omp master
       ts.first = PhaseTimers::Clock::now();
       Gate g{seq};
