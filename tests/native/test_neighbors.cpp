@@ -264,7 +264,7 @@ bool fast_ok(const FreeSim& sim, std::vector<std::uint32_t> fast) {
   double disp_max = 0.0;
   for (std::size_t i = 0; i < sim.p.size(); ++i)
     disp_max = std::max(disp_max, sim.box.min_image(sim.p.x[i] - sim.neighbors().reference_positions()[i]).norm());
-  return sim.neighbors().fast_pairs_listed(sim.p, sim.box, Law3::kRangeFactor, -1, disp_max, [&](auto&& f) {
+  return sim.neighbors().fast_pairs_listed(sim.p, sim.box, disp_max, [&](auto&& f) {
     for (const std::uint32_t i : fast)
       if (!f(i)) return false;
     return true;

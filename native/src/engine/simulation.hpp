@@ -284,13 +284,12 @@ class Simulation {
   // Every thread runs it on the same published numbers: the same verdict.
   bool fast_pairs_listed(const typename Integrator::DriftStats& all) const {
     if (all.n_fast > max_fast() || !(all.max_disp2 <= skin * skin)) return false;
-    return nl_.fast_pairs_listed(p, box, Law::kRangeFactor, exclude_species, std::sqrt(all.max_disp2),
-                                 [&](auto&& f) {
-                                   for (const Done& d : done_)
-                                     for (std::uint32_t k = 0; k < d.stats.n_fast; ++k)
-                                       if (!f(d.stats.fast[k])) return false;
-                                   return true;
-                                 });
+    return nl_.fast_pairs_listed(p, box, std::sqrt(all.max_disp2), [&](auto&& f) {
+      for (const Done& d : done_)
+        for (std::uint32_t k = 0; k < d.stats.n_fast; ++k)
+          if (!f(d.stats.fast[k])) return false;
+      return true;
+    });
   }
 
   // Looks whether every thread has published; with wait, spins until they

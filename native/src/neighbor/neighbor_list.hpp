@@ -98,6 +98,8 @@ class NeighborList {
     }
     n_large_ = d_large < d_max ? n_large : 0;
     d_max_ = d_max;
+    range_factor_ = range_factor;
+    exclude_species_ = exclude_species;
     const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
     p.prepare_reorder();
 #pragma omp parallel num_threads(nt_)
@@ -280,17 +282,20 @@ class NeighborList {
   // fast particle, one that moved more than skin/2. for_each_fast(f) calls
   // f(i) for every fast particle i (and stops when f returns false);
   // disp_max is the largest displacement of any particle. Each pair of a fast
-  // particle in range now (range_factor (d_i + d_j)) is tested against the
-  // build's own rule: listed if closer than range + skin at the reference
-  // positions. Both tests leave a margin of 1e-9 for rounding (the build's
+  // particle in range now (the build's range factor times d_i + d_j, pairs
+  // of two excluded particles left out as the build leaves them) is tested
+  // against the build's own rule: listed if closer than range + skin at the
+  // reference positions. Both tests leave a margin of 1e-9 for rounding (the build's
   // separations come from shifted positions, not Box::min_image), so that a
   // pair on the edge counts as unlisted and calls for a rebuild. The
   // candidates come from the build's cells within reach: a particle within
   // range of x_i now was within range + disp_max of it at the build.
   template <class ForEachFast>
-  bool fast_pairs_listed(const ParticleStore<Dim>& p, const Box<Dim>& box, double range_factor,
-                         int exclude_species, double disp_max, ForEachFast&& for_each_fast) const {
+  bool fast_pairs_listed(const ParticleStore<Dim>& p, const Box<Dim>& box, double disp_max,
+                         ForEachFast&& for_each_fast) const {
     constexpr double kMargin = 1e-9;
+    const double range_factor = range_factor_;
+    const int exclude_species = exclude_species_;
     const std::uint32_t lb = cells_.begin(cells_.large()), le = cells_.end(cells_.large());
     return for_each_fast([&](std::uint32_t i) {
       const V xi = p.x[i], ri = x_ref_[i];
@@ -368,7 +373,9 @@ class NeighborList {
   std::vector<std::size_t> bounds_{0, 0};  // block(t) = [bounds_[t], bounds_[t + 1])
   std::vector<V> x_ref_;
   double skin_ = 0.0;
-  double d_max_ = 0.0;
+  double d_max_ = 0.0;         // the largest diameter at the build
+  double range_factor_ = 0.0;  // the build's range(d_i, d_j) / (d_i + d_j)
+  int exclude_species_ = -1;   // the build's excluded species
   std::size_t n_large_ = 0;
   long builds_ = 0;
 };
