@@ -11,7 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
-from compare.reader import read_run
+from compare.reader import read_run, read_series
 from compare.spacetime import SpaceTime, axial_profile
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -59,6 +59,49 @@ def test_run_writes_schema_and_frames(short_run):
     r = np.hypot(run.frames.position[..., 0], run.frames.position[..., 2])
     assert r.max() < 8.0
     assert run.frames.position[-1, :, 2].mean() < run.frames.position[0, :, 2].mean() - 1.0
+
+
+def test_drum_output_lands_on_its_own_steps(short_run):
+    """The run loop takes the steps between outputs in one go
+    (Simulation::advance); each snapshot and profile row must still land on
+    the step nearest its rotation count, neither early nor late."""
+    run = read_run(short_run)
+    dt = run.scene["integrator"]["dt"]
+    steps_per = lambda rot: np.rint(rot * run.rotation_period / dt).astype(np.int64)  # noqa: E731
+    np.testing.assert_array_equal(run.frames.step, steps_per(np.arange(5) * 0.1))
+    np.testing.assert_array_equal(np.rint(run.profile.time / dt).astype(np.int64), steps_per(np.arange(9) * 0.05))
+
+
+def test_box_trace_and_frames_land_on_the_step_that_crosses(tmp_path):
+    """The shaken box samples its trace each time the cycle count times
+    trace_per_cycle passes an integer, and writes a frame each time the cycle
+    count passes a multiple of snapshot_every_cycles: on the first step past
+    it. The step before the sample must not yet have passed it (a sample
+    taken late by the steps the run loop takes in one go fails here)."""
+    out = tmp_path / "box.h5"
+    granular("run", ROOT / "scenes" / "box" / "f3.0_big.toml", "-o", out, "--threads", "2",
+             "--set", "run.settle=0.05", "--set", "run.duration=0.4",
+             "--set", "run.trace_per_cycle=50", "--set", "run.snapshot_every_cycles=0.25")
+    run = read_run(out)
+    f, dt, tpc = run.scene["shaking"]["frequency"], run.scene["integrator"]["dt"], 50
+    trace = read_series(out, "trace")
+    c = trace["cycle"]
+    np.testing.assert_allclose(c, f * (trace["time"] - 0.05), rtol=0, atol=1e-9)
+    k = np.floor(c * tpc + 1e-9)
+    # one row per integer passed, each on the first step past it
+    np.testing.assert_array_equal(k, np.arange(1, len(c) + 1))
+    assert np.all((c - f * dt) * tpc < k + 1e-9)
+    # and none missing at the end (the final time is summed step by step, so
+    # it may fall an ulp short of 0.45)
+    assert len(c) == int(np.floor(f * (run.frames.time[-1] - 0.05) * tpc))
+    # frames: the start, the end of settling, every quarter cycle, the end
+    steps = run.frames.step
+    settle_steps, total = round(0.05 / dt), round(0.45 / dt)
+    assert steps[0] == 0 and steps[1] == settle_steps and steps[-1] == total
+    cyc = f * (run.frames.time[2:-1] - 0.05)
+    q = np.floor(cyc / 0.25 + 1e-9)
+    np.testing.assert_array_equal(q, np.arange(1, len(cyc) + 1))
+    assert np.all((cyc - f * dt) / 0.25 < q + 1e-9)
 
 
 def test_engine_profile_equals_profile_from_frames(short_run):

@@ -167,8 +167,15 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
   const auto t0 = std::chrono::steady_clock::now();
   auto last_print = t0;
   const long n = static_cast<long>(sim.p.size());
-  for (long k = start + 1; k <= total; ++k) {
-    sim.step();
+  // The steps between two that observe, check or report run in one go.
+  auto acts = [&](long k, double) {
+    return k % health.every == 0 || s.steps_per(prof_k * s.profile_every) <= k ||
+           s.steps_per(snap_k * s.snapshot_every) <= k || checkpoints.may_act_at(k) || (progress && k % 200 == 0);
+  };
+  for (long k = start; k < total;) {
+    const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
+    sim.advance(next - k);
+    k = next;
     const bool fin = k == total;
     if (k % health.every == 0 || fin) check_health(sim, health);
     observe(fin);

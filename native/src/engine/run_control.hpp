@@ -1,6 +1,7 @@
 // Checkpoints, interruption and resumption of a run, shared by the drum and
-// the shaken box. The run loop calls Checkpointer::after_step once per step;
-// it costs one clock read and one flag test unless a checkpoint is due.
+// the shaken box. The run loop calls Checkpointer::after_step at every step
+// where may_act_at says it might write, and at every health check; it costs one clock read and one flag test unless a
+// checkpoint is due.
 #pragma once
 #include <chrono>
 #include <csignal>
@@ -38,6 +39,19 @@ class Interrupted : public std::runtime_error {
 // stops at once, without a checkpoint).
 void install_stop_handlers();
 int stop_signal();  // 0 if no stop was requested
+
+// The run loop takes the steps between two things it has to do in one call
+// (Simulation::advance: one parallel region between neighbour-list
+// rebuilds). From step k at time t, the first step m in (k, last] for which
+// acts(m, t_m) holds, or last; t_m is the time after step m, summed step by
+// step as the simulation sums it (the same bits).
+template <class Acts>
+long next_stop(long k, double t, double dt, long last, Acts&& acts) {
+  for (long m = k + 1;; ++m) {
+    t += dt;
+    if (m >= last || acts(m, t)) return m;
+  }
+}
 
 // Before a run loop: the state and output counters from ctl.resume, or else
 // the run's first output. Returns the step the loop continues after.
@@ -86,6 +100,12 @@ class Checkpointer {
   }
 
   long written() const { return written_; }
+  // Whether after_step may write a checkpoint after this step (a stop
+  // signal aside, which it notices at the next step it is called after).
+  bool may_act_at(long step) const {
+    if (ctl_.checkpoint.empty()) return false;
+    return (ctl_.every_steps > 0 && step % ctl_.every_steps == 0) || (ctl_.every_seconds > 0 && (step & 63) == 0);
+  }
 
  private:
   using Clock = std::chrono::steady_clock;

@@ -64,64 +64,103 @@ class Simulation {
     integrator.start(p);
   }
 
-  // One step. In the common case (no neighbour-list rebuild) the whole step is
-  // one parallel region: every thread moves its own block, evaluates its
-  // block's pairs and finishes it, meeting the others at one barrier (the
-  // ghost forces). Between the first stage and the pairs there is no barrier:
-  // each thread publishes its drift statistics and goes on with the rows that
-  // read only its own particles while the others finish (Gate below).
-  void step() {
+  // One step (advance(1)).
+  void step() { advance(1); }
+
+  // n steps. Between neighbour-list rebuilds the steps run in one parallel
+  // region: every thread moves its own block, evaluates its block's pairs and
+  // finishes it, meeting the others at one barrier a step (the ghost forces),
+  // and goes straight on to its next step. Between the first stage and the
+  // pairs there is no barrier: each thread publishes its drift statistics and
+  // goes on with the rows that read only its own particles while the others
+  // finish (Gate below). Nor between one step's second stage and the next
+  // step's first stage: after the barrier each thread reads and writes its
+  // own block only, until the next step's gate, which every thread passes
+  // only once all have finished the step before. A step whose verdict is to
+  // rebuild ends the region; the list is rebuilt, the step's forces computed
+  // and the region opened again. The caller picks n so that nothing reads the
+  // state in between (engine/run_control.hpp, steps_until).
+  void advance(long n) {
     const int nt = omp_get_max_threads();
-    if (nt != nl_.threads()) rebuild();  // the thread count changed since the last build
-    prepare_buffers(nt);
-    const auto& xref = nl_.reference_positions();
-    const long seq = ++seq_;
-    typename Integrator::DriftStats st;
-    bool finished = false;
-    Stamps ts;
+    while (n > 0) {
+      if (nt != nl_.threads()) rebuild();  // the thread count changed since the last build
+      prepare_buffers(nt);
+      const auto& xref = nl_.reference_positions();
+      const long seq0 = seq_;
+      const double dt = integrator.dt;
+      const double time0 = time;
+      // Written by the master: the steps completed, the time after them, and
+      // for a step that ends the region to rebuild, its statistics.
+      long completed = 0;
+      double time_out = time0;
+      bool rebuild_needed = false;
+      typename Integrator::DriftStats st;
 #pragma omp parallel num_threads(nt)
-    {
-      const int t = omp_get_thread_num();
-      const auto [lo, hi] = nl_.block(t);
-      Done& dn = done_[t];
-      dn.stats = integrator.first_half(
-          p, box, xref, lo, hi, time + integrator.dt,
-          Integrator::DriftStats::naming_fast(0.5 * skin, dn.fast.data(), static_cast<std::uint32_t>(dn.fast.size())));
-      dn.seq.store(seq, std::memory_order_release);
-#pragma omp master
-      ts.first = PhaseTimers::Clock::now();
-      Gate g{seq};
-      if (forces_in_region(t, nt, lo, hi, time + integrator.dt, ts, &g)) finish(lo, hi, ts);
-      // Every thread reached the same verdict from the same numbers.
-#pragma omp master
       {
-        st = g.all;
-        finished = g.go_on;
+        const int t = omp_get_thread_num();
+        const auto [lo, hi] = nl_.block(t);
+        Done& dn = done_[t];
+        // Every thread sums the time as the master does: the same bits.
+        double tm = time0;
+        long k = 0;
+        for (; k < n; ++k) {
+          const long seq = seq0 + k + 1;
+          Stamps ts;
+          dn.stats = integrator.first_half(
+              p, box, xref, lo, hi, tm + dt,
+              Integrator::DriftStats::naming_fast(0.5 * skin, dn.fast.data(), static_cast<std::uint32_t>(dn.fast.size())));
+          dn.seq.store(seq, std::memory_order_release);
+#pragma omp master
+          ts.first = PhaseTimers::Clock::now();
+          Gate g{seq};
+          // Every thread reaches the same verdict from the same numbers, so
+          // all leave the loop at the same step.
+          if (!forces_in_region(t, nt, lo, hi, tm + dt, ts, &g)) {
+#pragma omp master
+            {
+              st = g.all;
+              timers.add(Phase::integrate, ts.first - ts.start);
+            }
+            break;
+          }
+          finish(lo, hi, ts);
+          tm += dt;
+#pragma omp master
+          add_timers(ts);
+        }
+#pragma omp master
+        {
+          completed = k;
+          time_out = tm;
+          rebuild_needed = k < n;
+        }
       }
-    }
-    timers.add(Phase::integrate, ts.first - ts.start);
-    if (!finished) {
+      seq_ += completed;
+      time = time_out;
+      step_count += completed;
+      n -= completed;
+      if (!rebuild_needed) break;
+      // The step whose verdict was to rebuild: its first stage is done.
+      ++seq_;
       check_stable(st);  // throws if unstable
       {
         ScopedPhase ph(timers, Phase::neighbor);
         rebuild(false);
       }
-      ts = Stamps{};
+      Stamps ts;
+      ts.first = ts.start;
 #pragma omp parallel num_threads(nt)
       {
         const int t = omp_get_thread_num();
         const auto [lo, hi] = nl_.block(t);
-#pragma omp master
-        ts.first = PhaseTimers::Clock::now();
-        forces_in_region(t, nt, lo, hi, time + integrator.dt, ts);
+        forces_in_region(t, nt, lo, hi, time + dt, ts);
         finish(lo, hi, ts);
       }
+      add_timers(ts);
+      time += dt;
+      ++step_count;
+      --n;
     }
-    timers.add(Phase::pairs, ts.pairs_done - ts.first);
-    timers.add(Phase::walls, ts.walls_done - ts.pairs_done);
-    timers.add(Phase::integrate, ts.end - ts.walls_done);
-    time += integrator.dt;
-    ++step_count;
   }
 
   // Restart from a checkpoint: the store already holds the saved state (in the
@@ -211,7 +250,7 @@ class Simulation {
   // diameter (a collision passes in one or two steps, unresolved: Eq. (1)
   // diverges or grains pass through each other), faster than anything drives
   // it, or if anything is not finite. The neighbour list sets no limit here:
-  // step() rebuilds it from the current positions whenever the two largest
+  // advance() rebuilds it from the current positions whenever the two largest
   // displacements since the last build exceed the skin, before any force is
   // evaluated, so it holds every pair in range however far a particle moved.
   double max_step_move() const { return std::min(0.5 * d_min_, max_speed * integrator.dt); }
@@ -229,8 +268,8 @@ class Simulation {
     const std::size_t n = p.size();
     const std::size_t nb = nt > 1 ? static_cast<std::size_t>(nt) : 0;
     if (fbuf_.size() != nb || (nb > 0 && fbuf_[0].size() != n)) {
-      fbuf_.assign(nb, std::vector<V>(n));
-      tbuf_.assign(nb, std::vector<A>(n));
+      fbuf_.assign(nb, std::vector<V>(n, V::Zero()));  // zero: see forces_in_region
+      tbuf_.assign(nb, std::vector<A>(n, A::Zero()));
     }
     if constexpr (HasPairBatch<Law, Dim>::value)
       if (static_cast<int>(batch_.size()) != nt) batch_.resize(nt);
@@ -331,6 +370,14 @@ class Simulation {
                                    walls_done = start, end = start;
   };
 
+  // A step's phases, from the master's stamps.
+  void add_timers(const Stamps& ts) {
+    timers.add(Phase::integrate, ts.first - ts.start);
+    timers.add(Phase::pairs, ts.pairs_done - ts.first);
+    timers.add(Phase::walls, ts.walls_done - ts.pairs_done);
+    timers.add(Phase::integrate, ts.end - ts.walls_done);
+  }
+
   // The second stage on the thread's own block.
   void finish(std::size_t lo, std::size_t hi, Stamps& ts) {
     integrator.second_half(p, box, lo, hi);
@@ -345,32 +392,25 @@ class Simulation {
   // store). After one barrier each thread adds the others' ghost entries for
   // its block, in thread order, so the sums are bitwise repeatable for a
   // thread count; one thread has no ghosts and adds nothing. Only the chunks
-  // of a ghost buffer its owner writes (NeighborList::touched) are zeroed and
-  // read, so little data crosses between cores. Then wall contacts, per
+  // of a ghost buffer its owner writes (NeighborList::touched) are read and
+  // zeroed, so little data crosses between cores. Then wall contacts, per
   // particle of the block. t_pos: the time of the positions (moving walls are
-  // placed at it). With a gate (in step(), straight after the first stage),
+  // placed at it). With a gate (in advance(), straight after the first stage),
   // the rows that read another block wait for the verdict, and a verdict to
   // rebuild stops the loop: then every thread returns false, before the
   // barrier, and the forces are recomputed after the rebuild. Without one the
   // caller knows the positions are final everywhere.
   bool forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts,
                         Gate* gate = nullptr) {
-    const std::size_t n = p.size();
     constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
-    const std::size_t n_chunks = (n + kChunk - 1) / kChunk;
     std::fill(p.f.begin() + static_cast<std::ptrdiff_t>(lo), p.f.begin() + static_cast<std::ptrdiff_t>(hi), V::Zero());
     std::fill(p.tq.begin() + static_cast<std::ptrdiff_t>(lo), p.tq.begin() + static_cast<std::ptrdiff_t>(hi),
               A::Zero());
     Sinks sk{p.f.data(), p.tq.data(), p.f.data(), p.tq.data(), lo, hi - lo};
+    // The ghost buffer is all zero here: its readers zero what they add.
     if (nt > 1) {
       sk.gf = fbuf_[static_cast<std::size_t>(t)].data();
       sk.gt = tbuf_[static_cast<std::size_t>(t)].data();
-      for (std::size_t c = 0; c < n_chunks; ++c)
-        if (nl_.touched(t, c))
-          for (std::size_t i = c * kChunk, e = std::min(n, i + kChunk); i < e; ++i) {
-            sk.gf[i].setZero();
-            sk.gt[i].setZero();
-          }
     }
     // The rows of the block in pieces, each after a look at the gate.
     const std::size_t own_end = nl_.own_end(t);
@@ -408,15 +448,24 @@ class Simulation {
     if (gate && !gate->go_on) return false;
     if (nt > 1) {
 #pragma omp barrier
-      // Add the other threads' ghost entries for this block, in thread order.
+      // Add the other threads' ghost entries for this block, in thread order,
+      // and zero them: then every ghost buffer is zero again when its owner
+      // next writes it (after the next step's gate, which no thread passes
+      // before all have finished this sum), and no thread has to zero its
+      // own while another may still be reading it.
       for (std::size_t i = lo; i < hi;) {
         const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
         for (int u = 0; u < nt; ++u)
-          if (u != t && nl_.touched(u, c))
+          if (u != t && nl_.touched(u, c)) {
+            V* gf = fbuf_[static_cast<std::size_t>(u)].data();
+            A* gt = tbuf_[static_cast<std::size_t>(u)].data();
             for (std::size_t q = i; q < e; ++q) {
-              p.f[q] += fbuf_[static_cast<std::size_t>(u)][q];
-              p.tq[q] += tbuf_[static_cast<std::size_t>(u)][q];
+              p.f[q] += gf[q];
+              p.tq[q] += gt[q];
+              gf[q].setZero();
+              gt[q].setZero();
             }
+          }
         i = e;
       }
     }
