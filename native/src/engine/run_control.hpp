@@ -1,7 +1,7 @@
 // Checkpoints, interruption and resumption of a run, shared by the drum and
 // the shaken box. The run loop calls Checkpointer::after_step at every step
-// where may_act_at says it might write, and at every health check; it costs one clock read and one flag test unless a
-// checkpoint is due.
+// where may_act_at says it might write, and at every health check; it costs
+// one clock read and one flag test unless a checkpoint is due.
 #pragma once
 #include <chrono>
 #include <csignal>

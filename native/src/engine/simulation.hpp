@@ -79,7 +79,7 @@ class Simulation {
   // only once all have finished the step before. A step whose verdict is to
   // rebuild ends the region; the list is rebuilt, the step's forces computed
   // and the region opened again. The caller picks n so that nothing reads the
-  // state in between (engine/run_control.hpp, steps_until).
+  // state in between (engine/run_control.hpp, next_stop).
   void advance(long n) {
     const int nt = omp_get_max_threads();
     while (n > 0) {
@@ -90,10 +90,10 @@ class Simulation {
       const double dt = integrator.dt;
       const double time0 = time;
       // Written by the master: the steps completed, the time after them, and
-      // for a step that ends the region to rebuild, its statistics.
+      // for a step that ends the region to rebuild (completed < n), its
+      // statistics.
       long completed = 0;
       double time_out = time0;
-      bool rebuild_needed = false;
       typename Integrator::DriftStats st;
 #pragma omp parallel num_threads(nt)
       {
@@ -132,14 +132,13 @@ class Simulation {
         {
           completed = k;
           time_out = tm;
-          rebuild_needed = k < n;
         }
       }
       seq_ += completed;
       time = time_out;
       step_count += completed;
       n -= completed;
-      if (!rebuild_needed) break;
+      if (n == 0) break;
       // The step whose verdict was to rebuild: its first stage is done.
       ++seq_;
       check_stable(st);  // throws if unstable
