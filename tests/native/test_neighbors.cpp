@@ -257,6 +257,39 @@ TEST(Neighbors, OwnRowsReadOnlyTheirBlock) {
   omp_set_num_threads(1);
 }
 
+// A block's rows read other blocks only from its last slab along the store's
+// slowest axis (the longest), whichever axis of the box that is: the half
+// stencil reaches forward along it only (CellList::half_stencil). So nearly
+// all of a block's rows come before own_end and run while the other thread
+// finishes its first stage. A stencil ordered by the box's axes instead (z
+// most significant) reaches back into the previous block from the first slab
+// of a drum lying along y, and own_end sits at the block's start.
+TEST(Neighbors, OwnRowsAreAllButTheLastSlab) {
+  omp_set_num_threads(2);
+  for (int axis = 0; axis < 3; ++axis) {
+    Eigen::Vector3d lo(-10, -10, -10), hi(10, 10, 10);
+    lo[axis] = -64;
+    hi[axis] = 64;
+    std::array<bool, 3> periodic{false, false, false};
+    periodic[axis] = true;
+    auto sim = random_cloud(lo, hi, periodic, 6000, 7 + axis);
+    sim.skin = 0.4;
+    sim.init();
+    const auto& nl = sim.neighbors();
+    ASSERT_EQ(nl.threads(), 2);
+    for (int t = 0; t < 2; ++t) {
+      const auto [blo, bhi] = nl.block(t);
+      // 128 / (1.12 * 1.3 + 0.4) = 69 slabs, 34 or 35 a block: the last one
+      // and the part of a slab the cut leaves are under 6 % of a block.
+      EXPECT_GE(nl.own_end(t) - blo, 0.9 * static_cast<double>(bhi - blo))
+          << "long axis " << axis << ", thread " << t << ": own_end " << nl.own_end(t) << " in [" << blo << ", "
+          << bhi << ")";
+      EXPECT_LT(nl.own_end(t), bhi) << "periodic: the last slab reads the next block";
+    }
+  }
+  omp_set_num_threads(1);
+}
+
 namespace {
 
 // fast_pairs_listed with the fast particles given by hand.

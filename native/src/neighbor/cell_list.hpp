@@ -91,7 +91,16 @@ class CellList {
   int cell_of(std::size_t k) const { return cell_of_[k]; }
 
   // Half stencil of cell c: c itself plus the adjacent cells whose offset is
-  // lexicographically positive, with periodic wrap. Visiting (c, c') for c' in
+  // lexicographically positive in the store's axis order (the slowest axis
+  // most significant, the axis of stride 1 least), with periodic wrap. So a
+  // row reaches back along no axis further than along the faster ones, and
+  // never into an earlier slab of the slowest axis: a thread's block (a run
+  // of slabs) lists pairs outside itself only from its last slab, and the
+  // rows before that read only its own particles (NeighborList::own_end),
+  // which it evaluates while the other threads finish their first stage. The
+  // cells of offsets one apart along the stride-1 axis are consecutive in
+  // the store, so the 14 cells of a 3D half stencil merge into 5 runs (the
+  // neighbour build's scan). Visiting (c, c') for c' in
   // half_stencil(c) meets every pair of adjacent cells exactly once (periodic
   // axes have >= 3 cells or are collapsed to 1). Returns the count; out[0] = c.
   // shift[s]: what the wrap moved cell s by, so that x_j + shift[s] is the image
@@ -108,7 +117,8 @@ class CellList {
       bool ok = true;
       int idx = 0;
       V sh = V::Zero();
-      for (int k = 0; k < Dim; ++k) {
+      for (int q_ax = 0; q_ax < Dim; ++q_ax) {
+        const int k = order_[q_ax];  // digit q_ax of s: the axis of the q_ax-th smallest stride
         const int off = t % 3 - 1;
         t /= 3;
         if (n_[k] == 1 && off != 0) { ok = false; break; }
