@@ -93,14 +93,14 @@ class CellList {
   // Half stencil of cell c: c itself plus the adjacent cells whose offset is
   // lexicographically positive in the store's axis order (the slowest axis
   // most significant, the axis of stride 1 least), with periodic wrap. So a
-  // row reaches back along no axis further than along the faster ones, and
-  // never into an earlier slab of the slowest axis: a thread's block (a run
-  // of slabs) lists pairs outside itself only from its last slab, and the
-  // rows before that read only its own particles (NeighborList::own_end),
-  // which it evaluates while the other threads finish their first stage. The
-  // cells of offsets one apart along the stride-1 axis are consecutive in
-  // the store, so the 14 cells of a 3D half stencil merge into 5 runs (the
-  // neighbour build's scan). Visiting (c, c') for c' in
+  // row never reaches into an earlier slab along the slowest axis: a
+  // thread's block (a run of slabs) lists pairs outside itself only from its
+  // last slab, and the rows before that read only its own particles
+  // (NeighborList::own_end), which it evaluates while the other threads
+  // finish their first stage. The cells of offsets one apart along the
+  // stride-1 axis are consecutive in the store, so the 14 cells of a 3D half
+  // stencil merge into 5 runs (the neighbour build's scan) where no axis
+  // wraps. Visiting (c, c') for c' in
   // half_stencil(c) meets every pair of adjacent cells exactly once (periodic
   // axes have >= 3 cells or are collapsed to 1). Returns the count; out[0] = c.
   // shift[s]: what the wrap moved cell s by, so that x_j + shift[s] is the image
