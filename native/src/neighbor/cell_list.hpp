@@ -117,8 +117,8 @@ class CellList {
       bool ok = true;
       int idx = 0;
       V sh = V::Zero();
-      for (int q_ax = 0; q_ax < Dim; ++q_ax) {
-        const int k = order_[q_ax];  // digit q_ax of s: the axis of the q_ax-th smallest stride
+      for (int digit = 0; digit < Dim; ++digit) {
+        const int k = order_[digit];  // the axis of s's digit: the digit-th smallest stride
         const int off = t % 3 - 1;
         t /= 3;
         if (n_[k] == 1 && off != 0) { ok = false; break; }
