@@ -74,9 +74,11 @@ class Simulation {
   // pairs there is no barrier: each thread publishes its drift statistics and
   // goes on with the rows that read only its own particles while the others
   // finish (Gate below). Nor between one step's second stage and the next
-  // step's first stage: after the barrier each thread reads and writes its
-  // own block only, until the next step's gate, which every thread passes
-  // only once all have finished the step before. A step whose verdict is to
+  // step's first stage, which run as one pass over the block
+  // (second_then_first: each particle's columns read and written once, the
+  // same bits as the two stages apart): after the barrier each thread reads
+  // and writes its own block only, until the next step's gate, which every
+  // thread passes only once all have finished the step before. A step whose verdict is to
   // rebuild ends the region; the list is rebuilt, the step's forces computed
   // and the region opened again. The caller picks n so that nothing reads the
   // state in between (engine/run_control.hpp, next_stop).
@@ -102,13 +104,15 @@ class Simulation {
         Done& dn = done_[t];
         // Every thread sums the time as the master does: the same bits.
         double tm = time0;
+        const auto fast = [&] {
+          return Integrator::DriftStats::naming_fast(0.5 * skin, dn.fast.data(),
+                                                     static_cast<std::uint32_t>(dn.fast.size()));
+        };
         long k = 0;
+        Stamps ts;
+        dn.stats = integrator.first_half(p, box, xref, lo, hi, tm + dt, fast());
         for (; k < n; ++k) {
           const long seq = seq0 + k + 1;
-          Stamps ts;
-          dn.stats = integrator.first_half(
-              p, box, xref, lo, hi, tm + dt,
-              Integrator::DriftStats::naming_fast(0.5 * skin, dn.fast.data(), static_cast<std::uint32_t>(dn.fast.size())));
           dn.seq.store(seq, std::memory_order_release);
 #pragma omp master
           ts.first = PhaseTimers::Clock::now();
@@ -123,10 +127,23 @@ class Simulation {
             }
             break;
           }
-          finish(lo, hi, ts);
           tm += dt;
+          if (k + 1 == n) {
+            finish(lo, hi, ts);
 #pragma omp master
-          add_timers(ts);
+            add_timers(ts);
+            ++k;
+            break;
+          }
+          // This step's second stage and the next step's first in one pass
+          // over the block (the same bits as the two stages apart).
+          dn.stats = integrator.second_then_first(p, box, xref, lo, hi, tm + dt, fast());
+#pragma omp master
+          {
+            ts.end = PhaseTimers::Clock::now();
+            add_timers(ts);
+            ts.start = ts.end;
+          }
         }
 #pragma omp master
         {
