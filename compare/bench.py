@@ -126,6 +126,7 @@ class Case:
                 "workers": self.workers, "copies": self.copies, "particles": self.particles,
                 "rounds": len(self.rates),
                 "median": statistics.median(self.rates), "min": min(self.rates), "max": max(self.rates),
+                "rates": list(self.rates),
                 "peak_rss_bytes": self.rss_per_particle * self.particles if self.rss_per_particle else None,
                 "builds_per_step": statistics.median(self.builds_per_step) if self.builds_per_step else None}
 
@@ -277,6 +278,20 @@ RATIOS = [  # (numerator, denominator, what it says)
 ]
 
 
+def ratio(num: dict, den: dict, what: str) -> dict:
+    """num's median rate over den's, and the same ratio round by round: two
+    cases of one round ran seconds apart, two rounds minutes apart, so when the
+    machine's speed drifts during a launch (another tenant of the host, the
+    host moving the two cores apart) the per-round ratios compare runs that
+    saw the same machine, and their median is the steadier figure."""
+    out = {"numerator": num["key"], "denominator": den["key"], "what": what,
+           "ratio": num["median"] / den["median"]}
+    if len(num["rates"]) == len(den["rates"]):
+        per_round = [a / b for a, b in zip(num["rates"], den["rates"])]
+        out.update(per_round=per_round, per_round_median=statistics.median(per_round))
+    return out
+
+
 def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=1.0, box_settle=1.0,
               progress=sys.stderr) -> dict:
     t_start = time.time()
@@ -289,8 +304,7 @@ def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=
                 print(f"round {r + 1}/{rounds}  {c.key:28s} {rate:10.3g} particle-steps/s", file=progress, flush=True)
     rows = [c.summary() for c in cases]
     by = {row["key"]: row for row in rows}
-    ratios = [{"numerator": a, "denominator": b, "what": w, "ratio": by[a]["median"] / by[b]["median"]}
-              for a, b, w in RATIOS if a in by and b in by]
+    ratios = [ratio(by[a], by[b], w) for a, b, w in RATIOS if a in by and b in by]
     return {"machine": {"cpus": os.cpu_count(), "platform": platform.platform(),
                         "load_before": os.getloadavg()[0]},
             "settings": {"rounds": rounds, "drum_rotations": drum_rotations, "drum_settle_rotations": drum_settle,
@@ -331,8 +345,10 @@ def markdown(result) -> str:
     for r in result["cases"]:
         lines.append(f"| {r['key']} | {r['engine']} | {r['label']} | {r['workers']} | {r['particles']} | "
                      f"{r['median']:.3g} | {r['min']:.3g} – {r['max']:.3g} |")
-    lines += ["", "| ratio | value |", "|---|---|"]
-    lines += [f"| {q['what']} | {q['ratio']:.2f} |" for q in result["ratios"]]
+    lines += ["", "| ratio | of the medians | round by round: median (min – max) |", "|---|---|---|"]
+    lines += [f"| {q['what']} | {q['ratio']:.2f} | " + (
+        f"{q['per_round_median']:.2f} ({min(q['per_round']):.2f} – {max(q['per_round']):.2f})"
+        if "per_round" in q else "") + " |" for q in result["ratios"]]
     sc = result.get("scaling")
     if sc:
         lines += ["", "| particles | ns per particle-step | peak memory (MB) |", "|---|---|---|"]

@@ -248,6 +248,26 @@ print(json.dumps([{{"particle_steps_per_second": 1.5e6, "particles": 4664}}]))
     assert case.summary()["copies"] == 2 and case.particles == 4664
 
 
+def test_bench_ratio_pairs_the_rounds_as_well_as_the_medians():
+    """compare bench's ratios: the ratio of the two cases' medians, and the
+    median of the round-by-round ratios. On a machine that halves its speed
+    between one case and the next in one round the two differ, and the markdown
+    table shows both."""
+    from compare.bench import Case, markdown, ratio
+    num = Case("box-native-verlet-2t", "scenes/box/f3.0_big.toml", "native", "two threads", 2)
+    den = Case("box-native-verlet-1t", "scenes/box/f3.0_big.toml", "native", "one thread", 1)
+    num.rates, den.rates = [20.0, 20.0, 10.0], [10.0, 5.0, 5.0]
+    q = ratio(num.summary(), den.summary(), "box: 2 threads / 1 thread")
+    assert q["ratio"] == pytest.approx(20.0 / 5.0)
+    assert q["per_round"] == pytest.approx([2.0, 4.0, 2.0]) and q["per_round_median"] == pytest.approx(2.0)
+    den.rates = [10.0, 5.0]  # rounds that do not pair up: only the medians
+    assert "per_round" not in ratio(num.summary(), den.summary(), "unpaired")
+    table = markdown({"cases": [num.summary()], "ratios": [q], "wall_seconds": 1.0,
+                      "settings": {"rounds": 3, "drum_settle_rotations": 0.5, "drum_rotations": 1.0,
+                                   "box_settle_seconds": 1.0, "box_seconds": 1.0}})
+    assert "| box: 2 threads / 1 thread | 4.00 | 2.00 (2.00 – 4.00) |" in table, table
+
+
 def test_thread_probe_reports_its_loop_and_compare_bench_quotes_it(monkeypatch):
     """build/thread_probe (two threads against two processes on a loop with no
     physics): every time is positive, each speed-up is twice the one-thread
