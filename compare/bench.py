@@ -45,7 +45,7 @@ class Case:
     workers: int        # threads (native) or MPI ranks (LAMMPS)
     sets: list = field(default_factory=list)
     copies: int = 1     # runs started at once; the rate is their sum (the machine's ceiling, below)
-    timed_scale: float = 1.0  # times the round's timed stretch (small scenes time longer)
+    repeat: int = 1     # native: runs of the same stretch per round, their median the round's rate
     rates: list = field(default_factory=list)
     builds_per_step: list = field(default_factory=list)  # native: neighbour-list builds per timed step
     particles: int = 0
@@ -58,7 +58,7 @@ class Case:
         if self.engine == "native":
             exe = str(native_bin())
             span = ["--rotations" if drum else "--seconds", repr(timed)]
-            return [exe, "bench", self.scene, "--threads", str(self.workers), "--repeat", "1",
+            return [exe, "bench", self.scene, "--threads", str(self.workers), "--repeat", str(self.repeat),
                     "--settle", repr(settle), "--json", *span, *sets]
         if self.engine == "yade":
             total = settle + timed
@@ -171,16 +171,21 @@ def yade_cases(threads=(1, 2)) -> list[Case]:
 
 
 # Drum lengths giving about 1e3, 1e4 and 1e5 particles at drum #A's filling
-# (36.4 particles per unit length), each with the rotations it times per
-# round's rotation: at least 10^7 particle-steps (over a second) per run, so
-# that the smallest drum is not timed over a fifth of a second.
-SCALING_LENGTHS = {28: 10.0, 280: 2.0, 2800: 1.0}
+# (36.4 particles per unit length), each with its runs per round. Every size
+# times the same stretch of the flow (the round's rotations after the same
+# settling): the drum's contacts and list builds per step change as it runs
+# (docs/speed_accuracy.md, stops 24-25), so longer stretches for the small
+# drums compared their later flow with the large drum's earlier one (stop
+# 34: 1.19-1.21 that way, 1.10-1.14 over the same stretch). The small drums
+# repeat it instead, for at least 10^7 particle-steps (a second) per round.
+SCALING_LENGTHS = {28: 10, 280: 2, 2800: 1}
 
 
 def scaling_cases() -> list[Case]:
     return [Case(f"scale-drum-native-rapaport-L{L}", "scenes/drum/A.toml", "native",
-                 f"Rapaport law, leapfrog, drum length {L}, {k:g}x the timed rotations", 1, [f"drum.length={L}"],
-                 timed_scale=k) for L, k in SCALING_LENGTHS.items()]
+                 f"Rapaport law, leapfrog, drum length {L}, the timed rotations run {k} time{'s' if k > 1 else ''} "
+                 f"(the median)", 1,
+                 [f"drum.length={L}"], repeat=k) for L, k in SCALING_LENGTHS.items()]
 
 
 def scaling(rows) -> dict | None:
@@ -298,7 +303,7 @@ def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=
     for r in range(rounds):
         for c in cases:
             drum = "drum" in c.scene
-            rate = c.measure(c.timed_scale * (drum_rotations if drum else box_seconds),
+            rate = c.measure(drum_rotations if drum else box_seconds,
                              drum_settle if drum else box_settle)
             if progress:
                 print(f"round {r + 1}/{rounds}  {c.key:28s} {rate:10.3g} particle-steps/s", file=progress, flush=True)

@@ -268,6 +268,28 @@ def test_bench_ratio_pairs_the_rounds_as_well_as_the_medians():
     assert "| box: 2 threads / 1 thread | 4.00 | 2.00 (2.00 – 4.00) |" in table, table
 
 
+def test_bench_scaling_times_the_same_stretch_of_the_flow_at_every_size():
+    """The cost per particle-step over drum sizes compares like with like: the
+    drum's contacts and builds per step change as it runs, so every size
+    settles and times the same rotations, and the smaller drums repeat that
+    stretch (the median of their runs) rather than time a longer one."""
+    from compare.bench import scaling_cases
+
+    def arg(cmd, flag):
+        return cmd[cmd.index(flag) + 1]
+
+    cases = scaling_cases()
+    cmds = [c.command(1.0, 0.5) for c in cases]
+    assert len({arg(c, "--rotations") for c in cmds}) == 1 and len({arg(c, "--settle") for c in cmds}) == 1
+    lengths = [float(arg(c, "--set").split("=")[1]) for c in cmds]
+    repeats = [int(arg(c, "--repeat")) for c in cmds]
+    assert lengths == sorted(lengths) and lengths[-1] >= 90 * lengths[0]
+    assert repeats == sorted(repeats, reverse=True) and repeats[0] > repeats[-1]
+    # Each size gets at least a tenth of the largest drum's work per round.
+    work = [r * L for r, L in zip(repeats, lengths)]
+    assert max(work) <= 10 * min(work), work
+
+
 def test_thread_probe_reports_its_loop_and_compare_bench_quotes_it(monkeypatch):
     """build/thread_probe (two threads against two processes on a loop with no
     physics): every time is positive, each speed-up is twice the one-thread
