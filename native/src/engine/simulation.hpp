@@ -78,9 +78,9 @@ class Simulation {
   // (second_then_first: each particle's columns read and written once, the
   // same bits as the two stages apart): after the barrier each thread reads
   // and writes its own block only, until the next step's gate, which every
-  // thread passes only once all have finished the step before. A step whose verdict is to
-  // rebuild ends the region; the list is rebuilt, the step's forces computed
-  // and the region opened again. The caller picks n so that nothing reads the
+  // thread passes only once all have finished the step before. A step whose
+  // verdict is to rebuild ends the region; the list is rebuilt, the step's
+  // forces computed and the region opened again. The caller picks n so that nothing reads the
   // state in between (engine/run_control.hpp, next_stop).
   void advance(long n) {
     const int nt = omp_get_max_threads();

@@ -135,8 +135,9 @@ struct Gear5 {
     s.q5 += kC5 * e;
   }
 
-  // The corrector and/or the predictor on particles [lo, hi); the statistics
-  // only with the predictor.
+  // The corrector and/or the predictor on particles [lo, hi). x_ref, t_next
+  // and the statistics belong to the predictor; the corrector alone
+  // (second_half) passes placeholders it never reads.
   template <bool Correct, bool Predict>
   DriftStats stages(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref, std::size_t lo,
                     std::size_t hi, double t_next, const DriftStats& seed) const {
