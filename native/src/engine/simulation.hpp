@@ -284,7 +284,7 @@ class Simulation {
     const std::size_t n = p.size();
     const std::size_t nb = nt > 1 ? static_cast<std::size_t>(nt) : 0;
     if (fbuf_.size() != nb || (nb > 0 && fbuf_[0].size() != n)) {
-      fbuf_.assign(nb, std::vector<V>(n, V::Zero()));  // zero: see forces_in_region
+      fbuf_.assign(nb, std::vector<V>(n, V::Zero()));  // each thread zeroes what it writes: forces_in_region
       tbuf_.assign(nb, std::vector<A>(n, A::Zero()));
     }
     if constexpr (HasPairBatch<Law, Dim>::value)
@@ -423,7 +423,6 @@ class Simulation {
     std::fill(p.tq.begin() + static_cast<std::ptrdiff_t>(lo), p.tq.begin() + static_cast<std::ptrdiff_t>(hi),
               A::Zero());
     Sinks sk{p.f.data(), p.tq.data(), p.f.data(), p.tq.data(), lo, hi - lo};
-    // The ghost buffer is all zero here: its readers zero what they add.
     if (nt > 1) {
       sk.gf = fbuf_[static_cast<std::size_t>(t)].data();
       sk.gt = tbuf_[static_cast<std::size_t>(t)].data();
@@ -431,6 +430,14 @@ class Simulation {
     // The rows of the block in pieces, each after a look at the gate.
     const std::size_t own_end = nl_.own_end(t);
     bool stop = false;
+    // The thread zeroes the chunks of its ghost buffer that its rows write
+    // just before the first row that may write one (rows from own_end on):
+    // with a gate the verdict is known then, so every thread has finished the
+    // step before, its ghost sums included; without one the region has just
+    // opened. The lines it zeroes are those it is about to write, so they
+    // come to its core once (a reader that zeroed what it added made them
+    // cross three times a step).
+    bool zeroed = nt == 1;
     auto rows = [&](auto&& eval) {
       nl_.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
         for (std::size_t r = a; r < e && !stop;) {
@@ -446,6 +453,10 @@ class Simulation {
               stop = true;
               return;
             }
+          }
+          if (!zeroed && r1 > own_end) {
+            zero_ghosts(t);
+            zeroed = true;
           }
           eval(col, r, r1);
           r = r1;
@@ -464,22 +475,19 @@ class Simulation {
     if (gate && !gate->go_on) return false;
     if (nt > 1) {
 #pragma omp barrier
-      // Add the other threads' ghost entries for this block, in thread order,
-      // and zero them: then every ghost buffer is zero again when its owner
-      // next writes it (after the next step's gate, which no thread passes
-      // before all have finished this sum), and no thread has to zero its
-      // own while another may still be reading it.
+      // Add the other threads' ghost entries for this block, in thread order.
+      // Their owners zero them before they next write them (above), after
+      // the next step's gate, which no thread passes before all have
+      // finished this sum.
       for (std::size_t i = lo; i < hi;) {
         const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
         for (int u = 0; u < nt; ++u)
           if (u != t && nl_.touched(u, c)) {
-            V* gf = fbuf_[static_cast<std::size_t>(u)].data();
-            A* gt = tbuf_[static_cast<std::size_t>(u)].data();
+            const V* gf = fbuf_[static_cast<std::size_t>(u)].data();
+            const A* gt = tbuf_[static_cast<std::size_t>(u)].data();
             for (std::size_t q = i; q < e; ++q) {
               p.f[q] += gf[q];
               p.tq[q] += gt[q];
-              gf[q].setZero();
-              gt[q].setZero();
             }
           }
         i = e;
@@ -492,6 +500,19 @@ class Simulation {
 #pragma omp master
     ts.walls_done = PhaseTimers::Clock::now();
     return true;
+  }
+
+  // Zeroes the chunks of thread t's ghost buffer that its rows write.
+  void zero_ghosts(int t) {
+    constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
+    V* gf = fbuf_[static_cast<std::size_t>(t)].data();
+    A* gt = tbuf_[static_cast<std::size_t>(t)].data();
+    const std::size_t n = p.size();
+    for (const std::uint32_t c : nl_.touched_chunks(t)) {
+      const std::size_t a = c * kChunk, e = std::min(n, a + kChunk);
+      std::fill(gf + a, gf + e, V::Zero());
+      std::fill(gt + a, gt + e, A::Zero());
+    }
   }
 
   // The pair loop over rows [lo, hi) (held in col), one contact at a time:

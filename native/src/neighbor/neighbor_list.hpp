@@ -23,8 +23,11 @@ class NeighborList {
   using V = Vec<Dim>;
   // Granularity at which a thread records which particles outside its own
   // block it writes forces to (in its ghost buffer), so that only those
-  // entries are zeroed and reduced.
-  static constexpr std::size_t kChunk = 64;
+  // entries are zeroed and reduced. 16 particles: a 2D chunk's forces and
+  // torques are 6 cache lines, so the ghosts that cross between cores are
+  // little more than the ~45 boundary particles of the shaken box (64 read
+  // up to 3 times as many lines; box 3 Hz, 2 threads, docs/speed_accuracy.md).
+  static constexpr std::size_t kChunk = 16;
   // The work of a particle's forces in units of one listed pair that is not
   // in contact (a distance test), for balancing the threads' blocks: a pair
   // in contact costs kContactWeight more. Per-thread timers in the shaken box
@@ -76,6 +79,7 @@ class NeighborList {
     nt_ = omp_get_max_threads();
     col_.resize(nt_);
     touched_.resize(nt_);
+    touched_list_.resize(nt_);
     own_end_.resize(nt_);
     row_begin_.resize(n);
     row_end_.resize(n);
@@ -231,6 +235,10 @@ class NeighborList {
           }
         });
       own_end_[t] = own_end;
+      auto& list = touched_list_[t];
+      list.clear();
+      for (std::size_t c = 0; c < n_chunks; ++c)
+        if (mark[c]) list.push_back(static_cast<std::uint32_t>(c));
     }
     ++builds_;
   }
@@ -260,6 +268,8 @@ class NeighborList {
   // Whether thread t writes force entries of particles outside its block in
   // chunk c (particles c*kChunk ...).
   bool touched(int t, std::size_t c) const { return touched_[t][c] != 0; }
+  // The chunks thread t writes outside its block, in order.
+  const std::vector<std::uint32_t>& touched_chunks(int t) const { return touched_list_[t]; }
   // The rows of block(t) before own_end(t) read only particles of block(t):
   // thread t can evaluate them as soon as it has moved its own particles
   // (the block's end when no row reads another block, as on one thread).
@@ -366,6 +376,7 @@ class NeighborList {
   int nt_ = 1;
   std::vector<std::vector<std::uint32_t>> col_;
   std::vector<std::vector<std::uint8_t>> touched_;
+  std::vector<std::vector<std::uint32_t>> touched_list_;  // per thread: see touched_chunks()
   std::vector<std::size_t> own_end_;  // per thread: see own_end()
   std::vector<std::uint32_t> row_begin_, row_end_;
   std::vector<std::uint32_t> weight_;  // per particle, for balance()
