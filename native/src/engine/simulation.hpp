@@ -299,13 +299,19 @@ class Simulation {
   // each, so that one thread's writes do not evict another's.
   struct alignas(64) Done {
     std::atomic<long> seq{0};
+    std::atomic<long> met{0};  // the last step whose pairs the thread finished (meet)
     typename Integrator::DriftStats stats;
     std::vector<std::uint32_t> fast;  // the buffer that stats.fast names the fast particles into
     Done() = default;
     // Copied with the simulation (between steps, when no thread writes it).
-    Done(const Done& o) : seq(o.seq.load(std::memory_order_relaxed)), stats(o.stats), fast(o.fast) {}
+    Done(const Done& o)
+        : seq(o.seq.load(std::memory_order_relaxed)),
+          met(o.met.load(std::memory_order_relaxed)),
+          stats(o.stats),
+          fast(o.fast) {}
     Done& operator=(const Done& o) {
       seq.store(o.seq.load(std::memory_order_relaxed), std::memory_order_relaxed);
+      met.store(o.met.load(std::memory_order_relaxed), std::memory_order_relaxed);
       stats = o.stats;
       fast = o.fast;
       return *this;
@@ -361,6 +367,17 @@ class Simulation {
     g.go_on = stable(all) && (all.disp_bound() <= skin || fast_pairs_listed(all));
     g.known = true;
     return true;
+  }
+  // The step's barrier inside advance()'s region: thread t publishes that
+  // it has finished step seq's pairs and waits until every thread has. Each
+  // thread writes only its own line and reads the others' (an OpenMP
+  // barrier counts arrivals on one shared line, which every arrival takes
+  // from the core that had it: box 3 Hz, 2 threads, docs/speed_accuracy.md).
+  // The numbers only grow, so the same flags serve every step.
+  void meet(int t, long seq) {
+    done_[static_cast<std::size_t>(t)].met.store(seq, std::memory_order_release);
+    for (const Done& d : done_)
+      while (d.met.load(std::memory_order_acquire) < seq) spin_pause();
   }
   static void spin_pause() {
 #if defined(__x86_64__) || defined(__i386__)
@@ -474,7 +491,11 @@ class Simulation {
     if (gate && !gate->known) poll(*gate, true);  // every row read only the block's own particles
     if (gate && !gate->go_on) return false;
     if (nt > 1) {
+      if (gate)
+        meet(t, gate->seq);
+      else {
 #pragma omp barrier
+      }
       // Add the other threads' ghost entries for this block, in thread order.
       // Their owners zero them before they next write them (above), after
       // the next step's gate, which no thread passes before all have
