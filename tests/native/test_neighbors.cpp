@@ -96,8 +96,32 @@ TEST(Neighbors, FewLargeParticlesListAllTheirPairs) {
     }
     check_against_oracle(sim, 0.4, threads);
     EXPECT_EQ(sim.neighbors().n_large(), at.size());
-    // The large ones sit at the end of the store, after every cell.
-    for (std::size_t i = sim.p.size() - at.size(); i < sim.p.size(); ++i) EXPECT_GE(sim.p.d[i], 4.0);
+    // The large ones sit together at one end of the store.
+    const std::size_t first = sim.p.d[0] >= 4.0 ? 0 : sim.p.size() - at.size();
+    for (std::size_t i = first; i < first + at.size(); ++i) EXPECT_GE(sim.p.d[i], 4.0);
+  }
+}
+
+// A large particle's row reads every particle within its reach, so its
+// bucket goes to the end of the store nearer the cells it lies in: at the
+// start when it lies low along the slowest axis, at the end when high. On
+// two threads the first block (the start of the store) then holds the low
+// particle and the last block never reads the first; the rows that read
+// another block are the last few of the first block only. A bucket fixed at
+// the end (the low particle's row in the last block, reading the bottom)
+// fails both.
+TEST(Neighbors, LargeParticleSitsAtTheEndOfTheStoreNearItsNeighbours) {
+  for (const double y : {-26.0, 26.0}) {
+    auto sim = random_cloud({-10, -30, -10}, {10, 30, 10}, {false, false, false}, 4000, 14);
+    sim.p.x[0] = Eigen::Vector3d(0, y, 0);
+    sim.p.d[0] = 5.0;
+    check_against_oracle(sim, 0.4, 2);
+    ASSERT_EQ(sim.neighbors().n_large(), 1u);
+    const std::size_t at = y < 0 ? 0 : sim.p.size() - 1;
+    EXPECT_EQ(sim.p.d[at], 5.0) << "y = " << y;
+    const auto& nl = sim.neighbors();
+    EXPECT_EQ(nl.own_end(1), nl.block(1).second) << "y = " << y << ": the last block reads the first";
+    EXPECT_LT(nl.own_end(0), nl.block(0).second);
   }
 }
 

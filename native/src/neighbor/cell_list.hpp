@@ -2,8 +2,16 @@
 // Cabana's LinkedCellList. Cells are at least `min_cell` wide, so every pair
 // closer than min_cell lies in the same or an adjacent cell. Particles wider
 // than `d_large` (a few, much larger than the rest: the big disk of the
-// shaken box) go to one extra bucket after the last cell, large(), so that
-// the cells can be sized for the others (neighbor_list.hpp).
+// shaken box) go to one extra bucket, large(), so that the cells can be
+// sized for the others (neighbor_list.hpp). The bucket sits at the end of the
+// store, after every cell, or at its start when the large particles lie (on
+// average) among the first half of the others in cell order: then a large
+// particle's row, which reads every particle within its reach, reads
+// particles of its own thread's block (the first block is the start of the
+// store, the last its end) instead of reaching across the store to the other
+// end. In the shaken box the big disk starts at the bottom; at the end of
+// the store its row was the top block's only one that read the bottom block,
+// and both threads then paid for each other's lines every step.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -51,28 +59,54 @@ class CellList {
       cell_tmp_.resize(n);
       cell_of_.resize(n);
       sorted_.resize(n);
-      cell_start_.assign(n_cells_ + 2, 0);  // the cells, the large bucket, the end
+      cell_start_.assign(n_cells_ + 1, 0);  // the cells and the end of the last
       offset_.resize(nt);
+      large_cells_.resize(nt);
     }  // implicit barrier
     auto& count = offset_[t];
     count.assign(n_cells_ + 1, 0);
+    // The large particles' cells (had they been small), summed: where the bucket goes.
+    std::uint64_t large_cells = 0;
     for (std::size_t i = lo; i < hi; ++i) {
-      cell_tmp_[i] = d[i] > d_large ? n_cells_ : cell_index(box, x[i]);
+      const int c = cell_index(box, x[i]);
+      const bool large = d[i] > d_large;
+      cell_tmp_[i] = large ? n_cells_ : c;
+      large_cells += large ? static_cast<std::uint64_t>(c) : 0;
       ++count[cell_tmp_[i]];
     }
+    large_cells_[t] = large_cells;
 #pragma omp barrier
 #pragma omp single
     {
       std::uint32_t run = 0;
-      for (int c = 0; c <= n_cells_; ++c) {
-        cell_start_[c] = run;
+      auto place = [&](int c) {
         for (int u = 0; u < nt; ++u) {
           const std::uint32_t k = offset_[u][c];
           offset_[u][c] = run;
           run += k;
         }
+      };
+      std::uint64_t n_large = 0, sum = 0;
+      for (int u = 0; u < nt; ++u) {
+        n_large += offset_[u][n_cells_];
+        sum += large_cells_[u];
       }
-      cell_start_[n_cells_ + 1] = run;
+      large_first_ = n_large > 0 && 2 * sum < n_large * median_cell(n - n_large, nt);
+      if (large_first_) {
+        large_begin_ = run;
+        place(n_cells_);
+        large_end_ = run;
+      }
+      for (int c = 0; c < n_cells_; ++c) {
+        cell_start_[c] = run;
+        place(c);
+      }
+      cell_start_[n_cells_] = run;
+      if (!large_first_) {
+        large_begin_ = run;
+        place(n_cells_);
+        large_end_ = run;
+      }
     }  // implicit barrier
     for (std::size_t i = lo; i < hi; ++i) sorted_[count[cell_tmp_[i]]++] = static_cast<std::uint32_t>(i);
 #pragma omp barrier
@@ -83,8 +117,13 @@ class CellList {
   // Particle indices in cell order (a permutation: use it to reorder the store).
   const std::vector<std::uint32_t>& sorted() const { return sorted_; }
   int n_cells() const { return n_cells_; }
-  // The bucket of the large particles: they follow every cell's particles.
+  // The bucket of the large particles (cell_of() for them): the store's
+  // slots [large_begin(), large_end()), at its start or its end (above).
   int large() const { return n_cells_; }
+  std::uint32_t large_begin() const { return large_begin_; }
+  std::uint32_t large_end() const { return large_end_; }
+  bool large_first() const { return large_first_; }
+  // The slots of cell c (not the large bucket).
   std::uint32_t begin(int c) const { return cell_start_[c]; }
   std::uint32_t end(int c) const { return cell_start_[c + 1]; }
   // Cell of the particle at slot k of the reordered store.
@@ -189,6 +228,18 @@ class CellList {
     return idx;
   }
 
+  // The cell by which half of the n_small particles in cells come, from the
+  // per-thread counts: twice its index plus one (twice its middle, to
+  // compare with twice the large particles' mean cell).
+  std::uint64_t median_cell(std::uint64_t n_small, int nt) const {
+    std::uint64_t acc = 0;
+    for (int c = 0; c < n_cells_; ++c) {
+      for (int u = 0; u < nt; ++u) acc += offset_[u][c];
+      if (2 * acc >= n_small) return 2 * static_cast<std::uint64_t>(c) + 1;
+    }
+    return 2 * static_cast<std::uint64_t>(n_cells_);
+  }
+
   std::array<int, Dim> n_{};
   std::array<int, Dim> stride_{};
   std::array<int, Dim> order_{};
@@ -200,6 +251,9 @@ class CellList {
   std::vector<int> cell_of_, cell_tmp_;
   std::vector<std::vector<std::uint32_t>> offset_;
   std::vector<std::uint32_t> cell_start_;
+  std::vector<std::uint64_t> large_cells_;  // per thread: see build_in_region
+  std::uint32_t large_begin_ = 0, large_end_ = 0;
+  bool large_first_ = false;
   std::vector<std::uint32_t> sorted_;
 };
 

@@ -64,9 +64,10 @@ class NeighborList {
   // grains, and each grain's row tested 9 times the candidates it needs. If
   // no more than n / kLargeShare particles are wider than d_max / kLargeRatio,
   // they are large: the cells are sized for the others and leave the large
-  // ones out (CellList::large(), a bucket after the last cell, so they sit at
-  // the end of the store), and each large particle lists all its pairs in its
-  // own row, from every cell within its reach and the large ones after it.
+  // ones out (CellList::large(): a bucket at the start or the end of the
+  // store, whichever is nearer the cells they lie in), and each large
+  // particle lists all its pairs in its own row, from every cell within its
+  // reach and the large ones after it.
   // The others' rows never meet a large particle. Otherwise (Rapaport's
   // drums, half big and half small) there is one class and nothing changes.
   static constexpr double kLargeRatio = 1.5;
@@ -133,7 +134,7 @@ class NeighborList {
       // cells within its reach (whatever the direction: no small particle's
       // row lists a large one) and the large particles after it. Few rows,
       // so the plain minimum-image test.
-      const std::uint32_t large_end = cells_.end(cells_.large());
+      const std::uint32_t large_end = cells_.large_end();
       // Room in out for k more columns (the vector scan stores whole vectors
       // past the last kept one).
       auto room = [&](std::uint32_t k) {
@@ -306,7 +307,7 @@ class NeighborList {
     constexpr double kMargin = 1e-9;
     const double range_factor = range_factor_;
     const int exclude_species = exclude_species_;
-    const std::uint32_t lb = cells_.begin(cells_.large()), le = cells_.end(cells_.large());
+    const std::uint32_t lb = cells_.large_begin(), le = cells_.large_end();
     return for_each_fast([&](std::uint32_t i) {
       const V xi = p.x[i], ri = x_ref_[i];
       const double di = p.d[i];
