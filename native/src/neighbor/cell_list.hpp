@@ -91,22 +91,19 @@ class CellList {
         n_large += offset_[u][n_cells_];
         sum += large_cells_[u];
       }
-      large_first_ = n_large > 0 && 2 * sum < n_large * median_cell(n - n_large, nt);
-      if (large_first_) {
+      auto place_large = [&] {
         large_begin_ = run;
         place(n_cells_);
         large_end_ = run;
-      }
+      };
+      const bool large_first = n_large > 0 && 2 * sum < n_large * median_cell(n - n_large, nt);
+      if (large_first) place_large();
       for (int c = 0; c < n_cells_; ++c) {
         cell_start_[c] = run;
         place(c);
       }
       cell_start_[n_cells_] = run;
-      if (!large_first_) {
-        large_begin_ = run;
-        place(n_cells_);
-        large_end_ = run;
-      }
+      if (!large_first) place_large();
     }  // implicit barrier
     for (std::size_t i = lo; i < hi; ++i) sorted_[count[cell_tmp_[i]]++] = static_cast<std::uint32_t>(i);
 #pragma omp barrier
@@ -122,7 +119,6 @@ class CellList {
   int large() const { return n_cells_; }
   std::uint32_t large_begin() const { return large_begin_; }
   std::uint32_t large_end() const { return large_end_; }
-  bool large_first() const { return large_first_; }
   // The slots of cell c (not the large bucket).
   std::uint32_t begin(int c) const { return cell_start_[c]; }
   std::uint32_t end(int c) const { return cell_start_[c + 1]; }
@@ -253,7 +249,6 @@ class CellList {
   std::vector<std::uint32_t> cell_start_;
   std::vector<std::uint64_t> large_cells_;  // per thread: see build_in_region
   std::uint32_t large_begin_ = 0, large_end_ = 0;
-  bool large_first_ = false;
   std::vector<std::uint32_t> sorted_;
 };
 
