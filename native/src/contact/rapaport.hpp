@@ -114,7 +114,11 @@ struct RapaportLaw {
       // sliding(), Eq. (4): f_s = -min(gamma_s |v_s|, mu |f_n|) v^_s, zero at v_s = 0
       const double vabs = std::sqrt(vs2);
       const double mag = std::min(fr.gamma_s * vabs, fr.mu * std::abs(fn));
-      const double scale = vs2 == 0.0 ? 0.0 : -mag / (vs2 == 0.0 ? 1.0 : vabs);
+      // -mag / |v_s|, and +0 at v_s = 0 (then mag = 0, so 0 / 1), written
+      // without a select around the division: a division under a condition
+      // keeps the loop scalar without AVX-512's masked lanes (GCC 12,
+      // AVX2: "control flow in loop").
+      const double scale = (0.0 - mag) / (vabs + static_cast<double>(vs2 == 0.0));
       for (int a = 0; a < Dim; ++a) fs[a] = scale * vs[a];
       moment_c(n, fs, m);
       for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
