@@ -4,7 +4,8 @@
 //   and zero-sliding ones;
 // - the batched pair loop (engine/simulation.hpp) against an O(N^2) sum of
 //   pair_force over every pair in range, periodic images included;
-// - the neighbour build's vector pair test (neighbor/range_scan.hpp) against
+// - the neighbour build's vector pair tests (neighbor/range_scan.hpp: AVX-512,
+//   AVX2, whichever the build has) against
 //   its scalar form and the definition.
 // Tolerances: the batch kernel may fuse a multiply and an add where the
 // scalar code does not (or the reverse), which moves the last bit; 1e-12 of
@@ -279,6 +280,16 @@ void check_pair_scan(unsigned seed) {
       ASSERT_EQ(ns, nv) << "range [" << b << ", " << e << ")";
       ASSERT_EQ(cs, cv) << "range [" << b << ", " << e << ")";
       for (long k = 0; k < ns; ++k) ASSERT_EQ(s[k], v[k]);
+#endif
+#ifdef GRANULAR_RANGE_SCAN_AVX2
+      {
+        std::vector<std::uint32_t> v(e - b + kScanSlack);
+        std::uint32_t cv = 0;
+        const auto nv = pair_scan_avx2<Dim>(x.data(), d.data(), b, e, row, v.data(), cv) - v.data();
+        ASSERT_EQ(ns, nv) << "AVX2, range [" << b << ", " << e << ")";
+        ASSERT_EQ(cs, cv) << "AVX2, range [" << b << ", " << e << ")";
+        for (long k = 0; k < ns; ++k) ASSERT_EQ(s[k], v[k]);
+      }
 #endif
       // Both against the definition (distances far from the cutoffs by
       // more than a rounding: a draw within 1e-12 would be a coincidence).

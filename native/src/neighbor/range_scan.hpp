@@ -7,8 +7,9 @@
 // range), for the threads' block cut. About one candidate in seven is kept,
 // so the loop keeps the test out of the branch predictor: with AVX-512,
 // eight candidates at a time, the whole test in the vector lanes and a
-// compress-store of the ones kept; otherwise one at a time, always writing
-// the candidate and advancing the output only past a kept one. Both give the
+// compress-store of the ones kept; with AVX2, four at a time, the kept ones'
+// offsets from a table; otherwise one at a time, always writing the
+// candidate and advancing the output only past a kept one. All give the
 // same particles in the same order (tests/native/test_batch_kernels.cpp).
 //
 // Both forms compute r^2 as fma(dz, dz, fma(dy, dy, dx * dx)) and the
@@ -24,6 +25,11 @@
 #if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__BMI2__) && !defined(GRANULAR_NO_SIMD)
 #include <immintrin.h>
 #define GRANULAR_RANGE_SCAN_AVX512 1
+#endif
+// Every AVX-512 machine has AVX2: the tests check this form there too.
+#if defined(__AVX2__) && defined(__FMA__) && !defined(GRANULAR_NO_SIMD)
+#include <immintrin.h>
+#define GRANULAR_RANGE_SCAN_AVX2 1
 #endif
 
 namespace granular {
@@ -128,12 +134,81 @@ GRANULAR_INLINE std::uint32_t* pair_scan_avx512(const double* x, const double* d
 }
 #endif
 
+#ifdef GRANULAR_RANGE_SCAN_AVX2
+// Four particles' coordinates from their Dim * 4 consecutive doubles: whole
+// loads and a deinterleave within and across the 128-bit halves.
+template <int Dim>
+GRANULAR_INLINE void load_coords4(const double* p, __m256d (&c)[Dim]);
+
+template <>
+GRANULAR_INLINE void load_coords4<3>(const double* p, __m256d (&c)[3]) {
+  const __m256d a0 = _mm256_loadu_pd(p);      // x0 y0 | z0 x1
+  const __m256d a1 = _mm256_loadu_pd(p + 4);  // y1 z1 | x2 y2
+  const __m256d a2 = _mm256_loadu_pd(p + 8);  // z2 x3 | y3 z3
+  const __m256d u0 = _mm256_permute2f128_pd(a0, a1, 0x30);  // x0 y0 | x2 y2
+  const __m256d u1 = _mm256_permute2f128_pd(a0, a2, 0x21);  // z0 x1 | z2 x3
+  const __m256d u2 = _mm256_permute2f128_pd(a1, a2, 0x30);  // y1 z1 | y3 z3
+  c[0] = _mm256_blend_pd(u0, u1, 0b1010);
+  c[1] = _mm256_shuffle_pd(u0, u2, 0b0101);
+  c[2] = _mm256_blend_pd(u1, u2, 0b1010);
+}
+
+template <>
+GRANULAR_INLINE void load_coords4<2>(const double* p, __m256d (&c)[2]) {
+  const __m256d a0 = _mm256_loadu_pd(p);      // x0 y0 | x1 y1
+  const __m256d a1 = _mm256_loadu_pd(p + 4);  // x2 y2 | x3 y3
+  const __m256d u0 = _mm256_permute2f128_pd(a0, a1, 0x20);  // x0 y0 | x2 y2
+  const __m256d u1 = _mm256_permute2f128_pd(a0, a1, 0x31);  // x1 y1 | x3 y3
+  c[0] = _mm256_unpacklo_pd(u0, u1);
+  c[1] = _mm256_unpackhi_pd(u0, u1);
+}
+
+// The lanes a 4-bit mask keeps, in order, packed to the front.
+alignas(16) inline constexpr std::int32_t kKeptLanes4[16][4] = {
+    {0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0}, {2, 0, 0, 0}, {0, 2, 0, 0}, {1, 2, 0, 0}, {0, 1, 2, 0},
+    {3, 0, 0, 0}, {0, 3, 0, 0}, {1, 3, 0, 0}, {0, 1, 3, 0}, {2, 3, 0, 0}, {0, 2, 3, 0}, {1, 2, 3, 0}, {0, 1, 2, 3}};
+
+template <int Dim>
+GRANULAR_INLINE std::uint32_t* pair_scan_avx2(const double* x, const double* d, std::uint32_t b, std::uint32_t e,
+                                              const PairScanRow& row, std::uint32_t* out, std::uint32_t& contacts) {
+  __m256d xv[Dim];
+  for (int a = 0; a < Dim; ++a) xv[a] = _mm256_set1_pd(row.xs[a]);
+  const __m256d factor = _mm256_set1_pd(row.factor), di = _mm256_set1_pd(row.di), skin = _mm256_set1_pd(row.skin);
+  const __m128i excluded = _mm_set1_epi32(row.excluded);
+  std::uint32_t j0 = b;
+  for (; j0 + 4 <= e; j0 += 4) {
+    __m256d c[Dim];
+    load_coords4<Dim>(x + static_cast<std::size_t>(Dim) * j0, c);
+    __m256d r2 = _mm256_setzero_pd();
+    for (int a = 0; a < Dim; ++a) {
+      const __m256d da = _mm256_sub_pd(xv[a], c[a]);
+      r2 = _mm256_fmadd_pd(da, da, r2);
+    }
+    const __m256d r0 = _mm256_mul_pd(factor, _mm256_add_pd(di, _mm256_loadu_pd(d + j0)));
+    const __m256d rc = _mm256_add_pd(r0, skin);
+    int keep = _mm256_movemask_pd(_mm256_cmp_pd(r2, _mm256_mul_pd(rc, rc), _CMP_LT_OQ));
+    if (row.species)
+      keep &= ~_mm_movemask_ps(_mm_castsi128_ps(
+          _mm_cmpeq_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(row.species + j0)), excluded)));
+    contacts += static_cast<std::uint32_t>(
+        __builtin_popcount(keep & _mm256_movemask_pd(_mm256_cmp_pd(r2, _mm256_mul_pd(r0, r0), _CMP_LT_OQ))));
+    const __m128i kept = _mm_add_epi32(_mm_set1_epi32(static_cast<int>(j0)),
+                                       _mm_load_si128(reinterpret_cast<const __m128i*>(kKeptLanes4[keep])));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out), kept);
+    out += __builtin_popcount(keep);
+  }
+  return pair_scan_scalar<Dim>(x, d, j0, e, row, out, contacts);  // the last 0-3
+}
+#endif
+
 // The pairs of row i among [b, e) (above).
 template <int Dim>
 GRANULAR_INLINE std::uint32_t* pair_scan(const double* x, const double* d, std::uint32_t b, std::uint32_t e,
                                          const PairScanRow& row, std::uint32_t* out, std::uint32_t& contacts) {
-#ifdef GRANULAR_RANGE_SCAN_AVX512
+#if defined(GRANULAR_RANGE_SCAN_AVX512)
   return pair_scan_avx512<Dim>(x, d, b, e, row, out, contacts);
+#elif defined(GRANULAR_RANGE_SCAN_AVX2)
+  return pair_scan_avx2<Dim>(x, d, b, e, row, out, contacts);
 #else
   return pair_scan_scalar<Dim>(x, d, b, e, row, out, contacts);
 #endif
