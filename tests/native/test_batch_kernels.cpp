@@ -273,23 +273,21 @@ void check_pair_scan(unsigned seed) {
       std::vector<std::uint32_t> s(e - b + kScanSlack);
       std::uint32_t cs = 0;
       const auto ns = pair_scan_scalar<Dim>(x.data(), d.data(), b, e, row, s.data(), cs) - s.data();
-#ifdef GRANULAR_RANGE_SCAN_AVX512
-      std::vector<std::uint32_t> v(e - b + kScanSlack);
-      std::uint32_t cv = 0;
-      const auto nv = pair_scan_avx512<Dim>(x.data(), d.data(), b, e, row, v.data(), cv) - v.data();
-      ASSERT_EQ(ns, nv) << "range [" << b << ", " << e << ")";
-      ASSERT_EQ(cs, cv) << "range [" << b << ", " << e << ")";
-      for (long k = 0; k < ns; ++k) ASSERT_EQ(s[k], v[k]);
-#endif
-#ifdef GRANULAR_RANGE_SCAN_AVX2
-      {
+      // A vector form against the scalar one: the same particles in the same
+      // order, the same contact count.
+      [[maybe_unused]] const auto same_as_scalar = [&](const char* form, auto scan) {
         std::vector<std::uint32_t> v(e - b + kScanSlack);
         std::uint32_t cv = 0;
-        const auto nv = pair_scan_avx2<Dim>(x.data(), d.data(), b, e, row, v.data(), cv) - v.data();
-        ASSERT_EQ(ns, nv) << "AVX2, range [" << b << ", " << e << ")";
-        ASSERT_EQ(cs, cv) << "AVX2, range [" << b << ", " << e << ")";
-        for (long k = 0; k < ns; ++k) ASSERT_EQ(s[k], v[k]);
-      }
+        const auto nv = scan(x.data(), d.data(), b, e, row, v.data(), cv) - v.data();
+        ASSERT_EQ(ns, nv) << form << ", range [" << b << ", " << e << ")";
+        ASSERT_EQ(cs, cv) << form << ", range [" << b << ", " << e << ")";
+        for (long k = 0; k < ns; ++k) ASSERT_EQ(s[k], v[k]) << form;
+      };
+#ifdef GRANULAR_RANGE_SCAN_AVX512
+      same_as_scalar("AVX-512", pair_scan_avx512<Dim>);
+#endif
+#ifdef GRANULAR_RANGE_SCAN_AVX2
+      same_as_scalar("AVX2", pair_scan_avx2<Dim>);
 #endif
       // Both against the definition (distances far from the cutoffs by
       // more than a rounding: a draw within 1e-12 would be a coincidence).
