@@ -8,7 +8,10 @@ using namespace granular;
 
 namespace {
 
-std::vector<double> run_small_drum(int threads, std::uint64_t seed) {
+// stall_thread >= 0: that thread spins stall_us at the start of each force
+// evaluation, so that the other takes its tail tasks; taken counts them.
+std::vector<double> run_small_drum(int threads, std::uint64_t seed, int stall_thread = -1, int stall_us = 0,
+                                   long* taken = nullptr) {
   omp_set_num_threads(threads);
   DrumScene s;
   s.name = "det";
@@ -19,7 +22,11 @@ std::vector<double> run_small_drum(int threads, std::uint64_t seed) {
   std::vector<double> out;
   std::visit(
       [&](auto& v) {
+        v.stall_thread = stall_thread;
+        v.stall_for = std::chrono::microseconds(stall_us);
+        v.timers.reset();
         for (int k = 0; k < 600; ++k) v.step();
+        if (taken) *taken = v.timers.tails_taken;
         std::vector<std::size_t> order(v.p.size());
         for (std::size_t i = 0; i < v.p.size(); ++i) order[v.p.id[i]] = i;
         for (auto i : order)
@@ -45,4 +52,25 @@ TEST(Determinism, SameThreadsSameSeedBitwiseEqual) {
 TEST(Determinism, SeedMatters) {
   const auto a = run_small_drum(1, 3), b = run_small_drum(1, 4);
   EXPECT_NE(0, std::memcmp(a.data(), b.data(), std::min(a.size(), b.size()) * sizeof(double)));
+}
+
+// The last rows of each thread's block are tail tasks that whichever thread
+// is free first runs, each into a buffer of its own summed in a fixed order
+// (engine/simulation.hpp, run_tails). Who ran them must not change a bit:
+// with one thread stalled at every step the other runs its tasks, and the
+// run is bitwise the one without the stall. A task that wrote its own rows
+// straight into the store, or a sum in the order the tasks ran, fails it.
+TEST(Determinism, TailTasksRunByEitherThreadGiveTheSameBits) {
+  long taken_free = 0;
+  const auto free_run = run_small_drum(2, 3, -1, 0, &taken_free);
+  for (int stalled : {0, 1}) {
+    long taken = 0;
+    const auto a = run_small_drum(2, 3, stalled, 300, &taken);
+    ASSERT_EQ(a.size(), free_run.size());
+    // The test has teeth only if the stall moved tasks: at 300 us a step the
+    // other thread finishes its own block first nearly every step.
+    EXPECT_GT(taken, 600) << "thread " << stalled << " stalled";
+    EXPECT_EQ(0, std::memcmp(a.data(), free_run.data(), a.size() * sizeof(double)))
+        << "thread " << stalled << " stalled: " << taken << " tail tasks taken (" << taken_free << " without the stall)";
+  }
 }

@@ -219,6 +219,26 @@ TEST(Neighbors, TwoThreadBlocksBalanceWork) {
   EXPECT_LE(std::abs(sum(lo0, hi0) - sum(lo1, hi1)), w_max) << "blocks " << hi0 << " + " << n - lo1;
   // ... where equal counts would not be: the test would catch a split by count.
   EXPECT_GT(std::abs(sum(0, n / 2) - sum(n / 2, n)), 0.2 * total);
+  // Each block ends in its tail tasks (NeighborList::kTails), contiguous up to
+  // the block's end, each of kTailPercent of the block's work to within one
+  // particle's: the dense block's tasks hold fewer particles than the dilute
+  // one's. The forces below come through the tasks' buffers.
+  using NL = NeighborList<3>;
+  ASSERT_EQ(nl.tails(), NL::kTails);
+  for (int t = 0; t < 2; ++t) {
+    const auto [blo, bhi] = nl.block(t);
+    const double share = static_cast<double>(NL::kTailPercent) / 100.0 * sum(blo, bhi);
+    EXPECT_EQ(nl.core_end(t), nl.tail(t, 0).first);
+    EXPECT_GT(nl.core_end(t), blo);
+    EXPECT_EQ(nl.tail(t, NL::kTails - 1).second, bhi);
+    for (int k = 0; k < NL::kTails; ++k) {
+      const auto [a, e] = nl.tail(t, k);
+      if (k > 0) EXPECT_EQ(a, nl.tail(t, k - 1).second);
+      EXPECT_GE(sum(a, e), share) << "block " << t << " task " << k;
+      EXPECT_LT(sum(a, e), share + w_max) << "block " << t << " task " << k;
+    }
+  }
+  EXPECT_LT(nl.tail(0, 0).second - nl.tail(0, 0).first, nl.tail(1, 0).second - nl.tail(1, 0).first);
   // The forces, against a direct O(N^2) sum of the law.
   std::vector<Eigen::Vector3d> F(n, Eigen::Vector3d::Zero()), T(n, Eigen::Vector3d::Zero());
   for (std::size_t i = 0; i < n; ++i)

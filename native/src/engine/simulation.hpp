@@ -89,6 +89,9 @@ class Simulation {
       prepare_buffers(nt);
       const auto& xref = nl_.reference_positions();
       const long seq0 = seq_;
+      // Claim numbers for the region's evaluations (Claim): one a step.
+      const long gen0 = gen_;
+      gen_ += n;
       const double dt = integrator.dt;
       const double time0 = time;
       // Written by the master: the steps completed, the time after them, and
@@ -119,7 +122,7 @@ class Simulation {
           Gate g{seq};
           // Every thread reaches the same verdict from the same numbers, so
           // all leave the loop at the same step.
-          if (!forces_in_region(t, nt, lo, hi, tm + dt, ts, &g)) {
+          if (!forces_in_region(t, nt, lo, hi, tm + dt, gen0 + k + 1, ts, &g)) {
 #pragma omp master
             {
               st = g.all;
@@ -151,6 +154,7 @@ class Simulation {
           time_out = tm;
         }
       }
+      collect_tails();
       seq_ += completed;
       time = time_out;
       step_count += completed;
@@ -165,14 +169,16 @@ class Simulation {
       }
       Stamps ts;
       ts.first = ts.start;
+      const long gen = ++gen_;
 #pragma omp parallel num_threads(nt)
       {
         const int t = omp_get_thread_num();
         const auto [lo, hi] = nl_.block(t);
-        forces_in_region(t, nt, lo, hi, time + dt, ts);
+        forces_in_region(t, nt, lo, hi, time + dt, gen, ts);
         finish(lo, hi, ts);
       }
       add_timers(ts);
+      collect_tails();
       time += dt;
       ++step_count;
       --n;
@@ -211,12 +217,14 @@ class Simulation {
     if (nt != nl_.threads()) rebuild();
     prepare_buffers(nt);
     Stamps ts;
+    const long gen = ++gen_;
 #pragma omp parallel num_threads(nt)
     {
       const int t = omp_get_thread_num();
       const auto [lo, hi] = nl_.block(t);
-      forces_in_region(t, nt, lo, hi, time, ts);
+      forces_in_region(t, nt, lo, hi, time, gen, ts);
     }
+    collect_tails();
   }
 
   const NeighborList<Dim>& neighbors() const { return nl_; }
@@ -287,6 +295,12 @@ class Simulation {
       fbuf_.assign(nb, std::vector<V>(n, V::Zero()));  // each thread zeroes what it writes: forces_in_region
       tbuf_.assign(nb, std::vector<A>(n, A::Zero()));
     }
+    const std::size_t ntasks = nb * NeighborList<Dim>::kTails;
+    if (task_f_.size() != ntasks || (ntasks > 0 && task_f_[0].size() != n)) {
+      task_f_.assign(ntasks, std::vector<V>(n, V::Zero()));  // zeroed by the thread that runs the task
+      task_t_.assign(ntasks, std::vector<A>(n, A::Zero()));
+    }
+    if (claims_.size() != ntasks) std::vector<Claim>(ntasks).swap(claims_);
     if constexpr (HasPairBatch<Law, Dim>::value)
       if (static_cast<int>(batch_.size()) != nt) batch_.resize(nt);
     if (static_cast<int>(done_.size()) != nt) std::vector<Done>(static_cast<std::size_t>(nt)).swap(done_);
@@ -300,6 +314,7 @@ class Simulation {
   struct alignas(64) Done {
     std::atomic<long> seq{0};
     std::atomic<long> met{0};  // the last step whose pairs the thread finished (meet)
+    long tails_taken = 0;      // tail tasks of other blocks this thread ran (run_tails)
     typename Integrator::DriftStats stats;
     std::vector<std::uint32_t> fast;  // the buffer that stats.fast names the fast particles into
     Done() = default;
@@ -307,11 +322,13 @@ class Simulation {
     Done(const Done& o)
         : seq(o.seq.load(std::memory_order_relaxed)),
           met(o.met.load(std::memory_order_relaxed)),
+          tails_taken(o.tails_taken),
           stats(o.stats),
           fast(o.fast) {}
     Done& operator=(const Done& o) {
       seq.store(o.seq.load(std::memory_order_relaxed), std::memory_order_relaxed);
       met.store(o.met.load(std::memory_order_relaxed), std::memory_order_relaxed);
+      tails_taken = o.tails_taken;
       stats = o.stats;
       fast = o.fast;
       return *this;
@@ -419,32 +436,40 @@ class Simulation {
   }
 
   // Called by every thread of a parallel region. Thread t owns the particles
-  // of its block [lo, hi) (its rows of the neighbour list): it writes their
-  // force and torque straight into the store, and a contact's share for a
-  // particle outside the block into its own ghost buffer (indexed like the
-  // store). After one barrier each thread adds the others' ghost entries for
-  // its block, in thread order, so the sums are bitwise repeatable for a
-  // thread count; one thread has no ghosts and adds nothing. Only the chunks
-  // of a ghost buffer its owner writes (NeighborList::touched) are read and
-  // zeroed, so little data crosses between cores. Then wall contacts, per
-  // particle of the block. t_pos: the time of the positions (moving walls are
-  // placed at it). With a gate (in advance(), straight after the first stage),
-  // the rows that read another block wait for the verdict, and a verdict to
-  // rebuild stops the loop: then every thread returns false, before the
-  // barrier, and the forces are recomputed after the rebuild. Without one the
-  // caller knows the positions are final everywhere.
-  bool forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, Stamps& ts,
+  // of its block [lo, hi) (its rows of the neighbour list). The rows of the
+  // block's core (NeighborList::core_end) write their particles' force and
+  // torque straight into the store, and a contact's share for a particle
+  // outside the block into the thread's ghost buffer (indexed like the
+  // store). The block's tail tasks (NeighborList::kTails) follow, each run by
+  // whichever thread claims it first (run_tails) and writing every share into
+  // the task's own buffer. After one barrier each thread adds, for its block,
+  // the other threads' ghost entries in thread order and then every task's
+  // entries in task order: the sums are bitwise repeatable for a thread
+  // count, whoever ran the tasks; one thread has no ghosts and no tasks. Only
+  // the chunks of a buffer its writer touches (NeighborList::touched,
+  // tail_chunks) are read and zeroed, so little data crosses between cores.
+  // Then wall contacts, per particle of the block. t_pos: the time of the
+  // positions (moving walls are placed at it). gen: a number larger than any
+  // earlier evaluation's, for the claims. With a gate (in advance(), straight
+  // after the first stage), the rows that read another block, and the tail
+  // tasks, wait for the verdict, and a verdict to rebuild stops the loop:
+  // then every thread returns false, before the barrier, and the forces are
+  // recomputed after the rebuild. Without one the caller knows the positions
+  // are final everywhere.
+  bool forces_in_region(int t, int nt, std::size_t lo, std::size_t hi, double t_pos, long gen, Stamps& ts,
                         Gate* gate = nullptr) {
     constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
     std::fill(p.f.begin() + static_cast<std::ptrdiff_t>(lo), p.f.begin() + static_cast<std::ptrdiff_t>(hi), V::Zero());
     std::fill(p.tq.begin() + static_cast<std::ptrdiff_t>(lo), p.tq.begin() + static_cast<std::ptrdiff_t>(hi),
               A::Zero());
     Sinks sk{p.f.data(), p.tq.data(), p.f.data(), p.tq.data(), lo, hi - lo};
+    if constexpr (HasPairBatch<Law, Dim>::value) batch_[t].n = 0;
     if (nt > 1) {
       sk.gf = fbuf_[static_cast<std::size_t>(t)].data();
       sk.gt = tbuf_[static_cast<std::size_t>(t)].data();
     }
-    // The rows of the block in pieces, each after a look at the gate.
+    if (t == stall_thread) stall();
+    // The core's rows in pieces, each after a look at the gate.
     const std::size_t own_end = nl_.own_end(t);
     bool stop = false;
     // The thread zeroes the chunks of its ghost buffer that its rows write
@@ -455,62 +480,52 @@ class Simulation {
     // come to its core once (a reader that zeroed what it added made them
     // cross three times a step).
     bool zeroed = nt == 1;
-    auto rows = [&](auto&& eval) {
-      nl_.for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
-        for (std::size_t r = a; r < e && !stop;) {
-          // Once the verdict is known, the rest of the piece in one go.
-          std::size_t r1 = e;
-          if (gate && !gate->known) {
-            r1 = std::min(e, r + kPollRows);
-            if (r >= own_end)
-              poll(*gate, true);
-            else if (!poll(*gate, false))
-              r1 = std::min(r1, own_end);
-            if (gate->known && !gate->go_on) {
-              stop = true;
-              return;
-            }
+    nl_.for_row_segments(lo, nl_.core_end(t), [&](std::size_t a, std::size_t e, const std::uint32_t* col) {
+      for (std::size_t r = a; r < e && !stop;) {
+        // Once the verdict is known, the rest of the piece in one go.
+        std::size_t r1 = e;
+        if (gate && !gate->known) {
+          r1 = std::min(e, r + kPollRows);
+          if (r >= own_end)
+            poll(*gate, true);
+          else if (!poll(*gate, false))
+            r1 = std::min(r1, own_end);
+          if (gate->known && !gate->go_on) {
+            stop = true;
+            return;
           }
-          if (!zeroed && r1 > own_end) {
-            zero_ghosts(t);
-            zeroed = true;
-          }
-          eval(col, r, r1);
-          r = r1;
         }
-      });
-    };
-    if constexpr (HasPairBatch<Law, Dim>::value) {
-      PairBatch<Dim>& b = batch_[t];
-      b.n = 0;
-      rows([&](const std::uint32_t* col, std::size_t a, std::size_t e) { pairs_batched(b, col, a, e, sk); });
-      if (b.n > 0 && !stop) flush(b, sk);
-    } else {
-      rows([&](const std::uint32_t* col, std::size_t a, std::size_t e) { pairs_scalar(col, a, e, sk); });
-    }
-    if (gate && !gate->known) poll(*gate, true);  // every row read only the block's own particles
+        if (!zeroed && r1 > own_end) {
+          zero_chunks(fbuf_[static_cast<std::size_t>(t)], tbuf_[static_cast<std::size_t>(t)],
+                      nl_.touched_chunks(t));
+          zeroed = true;
+        }
+        pairs(t, col, r, r1, sk);
+        r = r1;
+      }
+    });
+    if (stop) return false;
+    flush_pairs(t, sk);
+    if (gate && !gate->known) poll(*gate, true);  // every core row read only the block's own particles
     if (gate && !gate->go_on) return false;
     if (nt > 1) {
+      run_tails(t, nt, gen);
       if (gate)
         meet(t, gate->seq);
       else {
 #pragma omp barrier
       }
-      // Add the other threads' ghost entries for this block, in thread order.
-      // Their owners zero them before they next write them (above), after
-      // the next step's gate, which no thread passes before all have
-      // finished this sum.
+      // Add the other threads' ghost entries for this block, in thread
+      // order, then the tasks' entries, in task order. Their writers zero
+      // them before they next write them, after the next step's gate, which
+      // no thread passes before all have finished this sum.
+      const std::size_t ntasks = task_f_.size();
       for (std::size_t i = lo; i < hi;) {
         const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
         for (int u = 0; u < nt; ++u)
-          if (u != t && nl_.touched(u, c)) {
-            const V* gf = fbuf_[static_cast<std::size_t>(u)].data();
-            const A* gt = tbuf_[static_cast<std::size_t>(u)].data();
-            for (std::size_t q = i; q < e; ++q) {
-              p.f[q] += gf[q];
-              p.tq[q] += gt[q];
-            }
-          }
+          if (u != t && nl_.touched(u, c)) add_entries(fbuf_[static_cast<std::size_t>(u)], tbuf_[static_cast<std::size_t>(u)], i, e);
+        for (std::size_t task = 0; task < ntasks; ++task)
+          if (nl_.tail_touched(task, c)) add_entries(task_f_[task], task_t_[task], i, e);
         i = e;
       }
     }
@@ -523,16 +538,101 @@ class Simulation {
     return true;
   }
 
-  // Zeroes the chunks of thread t's ghost buffer that its rows write.
-  void zero_ghosts(int t) {
+  // Adds a buffer's entries for particles [a, e) to the store.
+  void add_entries(const std::vector<V>& bf, const std::vector<A>& bt, std::size_t a, std::size_t e) {
+    for (std::size_t q = a; q < e; ++q) {
+      p.f[q] += bf[q];
+      p.tq[q] += bt[q];
+    }
+  }
+
+  // Rows [a, e) of col into the sinks, through thread t's batch where the law has a batch kernel.
+  void pairs(int t, const std::uint32_t* col, std::size_t a, std::size_t e, const Sinks& sk) {
+    if constexpr (HasPairBatch<Law, Dim>::value)
+      pairs_batched(batch_[t], col, a, e, sk);
+    else
+      pairs_scalar(col, a, e, sk);
+  }
+  // Evaluates what is left in thread t's batch into the sinks.
+  void flush_pairs(int t, const Sinks& sk) {
+    if constexpr (HasPairBatch<Law, Dim>::value)
+      if (batch_[t].n > 0) flush(batch_[t], sk);
+  }
+
+  // A tail task taken at most once per evaluation: gen is the last
+  // evaluation that claimed it. One cache line each.
+  struct alignas(64) Claim {
+    std::atomic<long> gen{0};
+    Claim() = default;
+    Claim(const Claim& o) : gen(o.gen.load(std::memory_order_relaxed)) {}
+    Claim& operator=(const Claim& o) {
+      gen.store(o.gen.load(std::memory_order_relaxed), std::memory_order_relaxed);
+      return *this;
+    }
+  };
+  bool claim(std::size_t task, long gen) {
+    std::atomic<long>& g = claims_[task].gen;
+    long old = g.load(std::memory_order_relaxed);
+    return old < gen && g.compare_exchange_strong(old, gen, std::memory_order_acq_rel);
+  }
+
+  // Thread t runs its own block's tail tasks in order, as long as no other
+  // thread has taken them, then takes the other blocks' from their ends
+  // (the next block first) until it finds one taken. A task's rows read
+  // other blocks' particles, so this runs once every thread's first stage is
+  // done (the gate's verdict, or a region without a gate).
+  void run_tails(int t, int nt, long gen) {
+    constexpr int kT = NeighborList<Dim>::kTails;
+    for (int k = 0; k < kT; ++k)
+      if (claim(static_cast<std::size_t>(t * kT + k), gen)) run_tail(t, t, k);
+    for (int s = 1; s < nt; ++s) {
+      const int u = (t + s) % nt;
+      for (int k = kT - 1; k >= 0; --k) {
+        if (!claim(static_cast<std::size_t>(u * kT + k), gen)) break;
+        run_tail(t, u, k);
+        ++done_[static_cast<std::size_t>(t)].tails_taken;
+      }
+    }
+  }
+  // Thread t runs tail task k of block u into the task's buffer.
+  void run_tail(int t, int u, int k) {
+    const std::size_t task = static_cast<std::size_t>(u * NeighborList<Dim>::kTails + k);
+    std::vector<V>& bf = task_f_[task];
+    std::vector<A>& bt = task_t_[task];
+    zero_chunks(bf, bt, nl_.tail_chunks(task));
+    const Sinks sk{bf.data(), bt.data(), bf.data(), bt.data(), 0, 0};
+    const auto [a, e] = nl_.tail(u, k);
+    nl_.for_row_segments(a, e, [&](std::size_t r, std::size_t re, const std::uint32_t* col) { pairs(t, col, r, re, sk); });
+    flush_pairs(t, sk);
+  }
+
+  // Testing: stall_thread spins for stall_for at the start of each force
+  // evaluation, so that the others take its tail tasks.
+ public:
+  int stall_thread = -1;
+  std::chrono::microseconds stall_for{0};
+
+ private:
+  // Moves the threads' counts of tail tasks taken into the timers (between regions).
+  void collect_tails() {
+    for (Done& d : done_) {
+      timers.tails_taken += d.tails_taken;
+      d.tails_taken = 0;
+    }
+  }
+  void stall() const {
+    const auto until = PhaseTimers::Clock::now() + stall_for;
+    while (PhaseTimers::Clock::now() < until) spin_pause();
+  }
+
+  // Zeroes the given chunks of a buffer.
+  void zero_chunks(std::vector<V>& bf, std::vector<A>& bt, const std::vector<std::uint32_t>& chunks) {
     constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
-    V* gf = fbuf_[static_cast<std::size_t>(t)].data();
-    A* gt = tbuf_[static_cast<std::size_t>(t)].data();
     const std::size_t n = p.size();
-    for (const std::uint32_t c : nl_.touched_chunks(t)) {
+    for (const std::uint32_t c : chunks) {
       const std::size_t a = c * kChunk, e = std::min(n, a + kChunk);
-      std::fill(gf + a, gf + e, V::Zero());
-      std::fill(gt + a, gt + e, A::Zero());
+      std::fill(bf.begin() + static_cast<std::ptrdiff_t>(a), bf.begin() + static_cast<std::ptrdiff_t>(e), V::Zero());
+      std::fill(bt.begin() + static_cast<std::ptrdiff_t>(a), bt.begin() + static_cast<std::ptrdiff_t>(e), A::Zero());
     }
   }
 
@@ -688,6 +788,10 @@ class Simulation {
   std::vector<PairBatch<Dim>> batch_;  // per thread, for laws with a batch kernel
   std::vector<Done> done_;             // per thread, see Gate
   long seq_ = 0;                       // the steps taken by this object, for Done
+  long gen_ = 0;                       // the last claim number handed out (Claim)
+  std::vector<std::vector<V>> task_f_;  // per tail task, indexed like the store
+  std::vector<std::vector<A>> task_t_;
+  std::vector<Claim> claims_;  // per tail task
 };
 
 }  // namespace granular

@@ -21,7 +21,12 @@ class PhaseTimers {
     static const char* names[] = {"integrate", "neighbor", "pairs", "walls", "observe"};
     return names[static_cast<int>(ph)];
   }
-  void reset() { total_.fill(Clock::duration::zero()); }
+  void reset() {
+    total_.fill(Clock::duration::zero());
+    tails_taken = 0;
+  }
+  // Tail tasks run by a thread other than their block's owner (engine/simulation.hpp).
+  long tails_taken = 0;
 
  private:
   std::array<Clock::duration, static_cast<int>(Phase::count)> total_{};
@@ -53,6 +58,13 @@ std::string phase_report(const Sim& sim, double total_seconds, long steps = 0) {
   }
   os << "  neighbour-list builds: " << sim.neighbors().builds() << ", pairs listed: " << sim.neighbors().n_pairs()
      << "\n";
+  if (steps > 0 && sim.neighbors().tails() > 0) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "  tail tasks run by a thread other than their block's: %.2f a step (of %d)\n",
+                  static_cast<double>(sim.timers.tails_taken) / static_cast<double>(steps),
+                  sim.neighbors().tails() * sim.neighbors().threads());
+    os << buf;
+  }
   if (steps > 0) {
     const auto [contacts, bare_ns] = sim.bare_kernel();
     if (contacts > 0) {

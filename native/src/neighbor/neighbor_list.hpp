@@ -40,6 +40,17 @@ class NeighborList {
   // integration, walls and ghost sums) comes from the caller:
   // build(particle_weight).
   static constexpr std::uint32_t kContactWeight = 5;
+  // Tail tasks. The last rows of each block are cut into kTails tasks of
+  // kTailPercent of the block's expected work each. The owner evaluates them
+  // after the rest of its block, and a thread that has finished its own block
+  // takes the other blocks' tasks from the back (engine/simulation.hpp): a
+  // core that runs slower for a while (the speed of each of this machine's
+  // virtual cores drifts by up to a third, independently) then leaves less of
+  // the step to wait for. A task writes all its forces, its own particles'
+  // too, into a buffer of its own that is summed in a fixed order, so the
+  // result does not depend on which thread ran it.
+  static constexpr int kTails = 3;
+  static constexpr std::uint64_t kTailPercent = 8;
 
   // Sorts the store by cell (reorder), then lists pairs. The contact law's
   // interaction range is range_factor * (d_i + d_j) (every law's form,
@@ -215,31 +226,46 @@ class NeighborList {
       work_[t] = work;
 #pragma omp barrier
 #pragma omp single
-      balance(n);
+      {
+        balance(n);
+        cut_tails();
+        tail_touched_.resize(static_cast<std::size_t>(nt_ * kTails));
+        tail_list_.resize(static_cast<std::size_t>(nt_ * kTails));
+      }
+      for (int k = 0; k < tails(); ++k) tail_touched_[static_cast<std::size_t>(t * kTails + k)].assign(n_chunks, 0);
       // Which chunks outside its block thread t's rows write to (one thread
       // owns every particle and writes no ghosts), and the first of its rows
       // that reads a particle of another block.
       const std::size_t blo = bounds_[t], bhi = bounds_[t + 1];  // block(t)
+      const std::size_t core = core_end(t);
       auto& mark = touched_[t];
       mark.assign(n_chunks, 0);
       std::size_t own_end = bhi;
       if (nt_ > 1)
-        for_row_segments(t, [&](std::size_t a, std::size_t e, const std::uint32_t* c) {
+        for_row_segments(blo, bhi, [&](std::size_t a, std::size_t e, const std::uint32_t* c) {
           for (std::size_t i = a; i < e; ++i) {
             std::uint8_t out_i = 0;
-            for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k) {
-              const std::uint8_t o = static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
-              mark[c[k] / kChunk] |= o;
-              out_i |= o;
-            }
+            for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k)
+              out_i |= static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
             if (out_i && own_end == bhi) own_end = i;
+            // The core's rows write the store for the block and a ghost
+            // buffer for the rest; a tail task writes its buffer for all.
+            if (i < core) {
+              for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k)
+                mark[c[k] / kChunk] |= static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
+            } else {
+              auto& tm = tail_touched_[static_cast<std::size_t>(tail_of(t, i))];
+              tm[i / kChunk] = 1;
+              for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k) tm[c[k] / kChunk] = 1;
+            }
           }
         });
       own_end_[t] = own_end;
-      auto& list = touched_list_[t];
-      list.clear();
-      for (std::size_t c = 0; c < n_chunks; ++c)
-        if (mark[c]) list.push_back(static_cast<std::uint32_t>(c));
+      chunk_list(mark, touched_list_[t]);
+      for (int k = 0; k < tails(); ++k) {
+        const std::size_t task = static_cast<std::size_t>(t * kTails + k);
+        chunk_list(tail_touched_[task], tail_list_[task]);
+      }
     }
     ++builds_;
   }
@@ -258,6 +284,11 @@ class NeighborList {
   template <class F>
   void for_row_segments(int t, F&& f) const {
     const auto [lo, hi] = block(t);
+    for_row_segments(lo, hi, f);
+  }
+  // The same for any rows [lo, hi).
+  template <class F>
+  void for_row_segments(std::size_t lo, std::size_t hi, F&& f) const {
     for (int u = 0; u < nt_; ++u) {
       const auto [rlo, rhi] = row_block(u);
       const std::size_t a = std::max(lo, rlo), b = std::min(hi, rhi);
@@ -275,6 +306,16 @@ class NeighborList {
   // thread t can evaluate them as soon as it has moved its own particles
   // (the block's end when no row reads another block, as on one thread).
   std::size_t own_end(int t) const { return own_end_[t]; }
+  // Tail tasks (kTails above; none on one thread): block(t) is its core
+  // [block(t).first, core_end(t)) and then tail(t, 0), ..., tail(t, kTails - 1).
+  int tails() const { return nt_ > 1 ? kTails : 0; }
+  std::size_t core_end(int t) const { return tails() ? tail_begin_[tail_index(t, 0)] : bounds_[t + 1]; }
+  std::pair<std::size_t, std::size_t> tail(int t, int k) const {
+    return {tail_begin_[tail_index(t, k)], tail_begin_[tail_index(t, k) + 1]};
+  }
+  // Which chunks task t * kTails + k writes (its buffer), as flags and in order.
+  bool tail_touched(std::size_t task, std::size_t c) const { return tail_touched_[task][c] != 0; }
+  const std::vector<std::uint32_t>& tail_chunks(std::size_t task) const { return tail_list_[task]; }
   std::size_t n_pairs() const {
     std::size_t k = 0;
     for (const auto& c : col_) k += c.size();
@@ -357,8 +398,10 @@ class NeighborList {
     bounds_[0] = 0;
     std::uint64_t total = 0;
     for (int u = 0; u < nt_; ++u) total += work_[u];
+    block_work_.assign(static_cast<std::size_t>(nt_), 0);
     std::size_t i = 0;
-    std::uint64_t acc = 0;  // the weight of [0, i)
+    std::uint64_t acc = 0;   // the weight of [0, i)
+    std::uint64_t done = 0;  // the weight of the blocks cut so far
     for (int k = 1; k < nt_; ++k) {
       const std::uint64_t target = total * static_cast<std::uint64_t>(k) / static_cast<std::uint64_t>(nt_);
       for (int u = 0; u < nt_; ++u) {
@@ -370,7 +413,42 @@ class NeighborList {
       }
       while (i < n && acc < target) acc += weight_[i++];
       bounds_[k] = i;
+      block_work_[k - 1] = acc - done;
+      done = acc;
     }
+    block_work_[nt_ - 1] = total - done;
+  }
+
+  // Cuts the last rows of each block into its tail tasks (kTails above), of
+  // kTailPercent of the block's work each, from the block's end back. Integer
+  // sums of the same weights as balance(): the same positions give the same
+  // tasks.
+  void cut_tails() {
+    tail_begin_.assign(static_cast<std::size_t>(nt_ * (kTails + 1)), 0);
+    if (nt_ == 1) return;
+    for (int t = 0; t < nt_; ++t) {
+      const std::size_t lo = bounds_[t];
+      std::size_t i = bounds_[t + 1];
+      const std::uint64_t task_work = block_work_[t] * kTailPercent / 100;
+      tail_begin_[tail_index(t, kTails)] = i;
+      for (int k = kTails - 1; k >= 0; --k) {
+        std::uint64_t acc = 0;
+        while (i > lo && acc < task_work) acc += weight_[--i];
+        tail_begin_[tail_index(t, k)] = i;
+      }
+    }
+  }
+  std::size_t tail_index(int t, int k) const { return static_cast<std::size_t>(t * (kTails + 1) + k); }
+  // The task holding row i of block t's tail.
+  int tail_of(int t, std::size_t i) const {
+    int k = 0;
+    while (k + 1 < kTails && i >= tail_begin_[tail_index(t, k + 1)]) ++k;
+    return t * kTails + k;
+  }
+  static void chunk_list(const std::vector<std::uint8_t>& mark, std::vector<std::uint32_t>& list) {
+    list.clear();
+    for (std::size_t c = 0; c < mark.size(); ++c)
+      if (mark[c]) list.push_back(static_cast<std::uint32_t>(c));
   }
 
   CellList<Dim> cells_;
@@ -383,6 +461,10 @@ class NeighborList {
   std::vector<std::uint32_t> weight_;  // per particle, for balance()
   std::vector<std::uint64_t> work_;    // per row block: the sum of its weights
   std::vector<std::size_t> bounds_{0, 0};  // block(t) = [bounds_[t], bounds_[t + 1])
+  std::vector<std::uint64_t> block_work_;  // per block, from balance()
+  std::vector<std::size_t> tail_begin_;   // per block, the kTails tasks' starts and the block's end
+  std::vector<std::vector<std::uint8_t>> tail_touched_;  // per tail task: see tail_touched()
+  std::vector<std::vector<std::uint32_t>> tail_list_;
   std::vector<V> x_ref_;
   double skin_ = 0.0;
   double d_max_ = 0.0;         // the largest diameter at the build
