@@ -233,7 +233,9 @@ TEST(Neighbors, TwoThreadBlocksBalanceWork) {
     EXPECT_EQ(nl.tail(t, NL::kTails - 1).second, bhi);
     for (int k = 0; k < NL::kTails; ++k) {
       const auto [a, e] = nl.tail(t, k);
-      if (k > 0) EXPECT_EQ(a, nl.tail(t, k - 1).second);
+      if (k > 0) {
+        EXPECT_EQ(a, nl.tail(t, k - 1).second);
+      }
       EXPECT_GE(sum(a, e), share) << "block " << t << " task " << k;
       EXPECT_LT(sum(a, e), share + w_max) << "block " << t << " task " << k;
     }

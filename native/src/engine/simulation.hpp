@@ -204,6 +204,16 @@ class Simulation {
   // rebuild inside a step, after the drift), so the reorder skips them.
   void rebuild(bool forces = true) {
     nl_.build(p, box, skin, Law::kRangeFactor, exclude_species, forces, kParticleWeight);
+    // The tail tasks' buffers, one entry per particle of the chunks each
+    // writes (zeroed by the thread that runs the task).
+    const std::size_t ntasks = static_cast<std::size_t>(nl_.tails() * nl_.threads());
+    task_f_.resize(ntasks);
+    task_t_.resize(ntasks);
+    for (std::size_t task = 0; task < ntasks; ++task) {
+      const std::size_t m = nl_.tail_chunks(task).size() * NeighborList<Dim>::kChunk;
+      task_f_[task].resize(m);
+      task_t_[task].resize(m);
+    }
   }
 
   // A particle's work in a step besides its pairs, in listed pairs (the
@@ -296,10 +306,6 @@ class Simulation {
       tbuf_.assign(nb, std::vector<A>(n, A::Zero()));
     }
     const std::size_t ntasks = nb * NeighborList<Dim>::kTails;
-    if (task_f_.size() != ntasks || (ntasks > 0 && task_f_[0].size() != n)) {
-      task_f_.assign(ntasks, std::vector<V>(n, V::Zero()));  // zeroed by the thread that runs the task
-      task_t_.assign(ntasks, std::vector<A>(n, A::Zero()));
-    }
     if (claims_.size() != ntasks) std::vector<Claim>(ntasks).swap(claims_);
     if constexpr (HasPairBatch<Law, Dim>::value)
       if (static_cast<int>(batch_.size()) != nt) batch_.resize(nt);
@@ -413,6 +419,22 @@ class Simulation {
     std::size_t lo, len;
     V& force(std::uint32_t j) const { return (j - lo < len ? f : gf)[j]; }
     A& torque(std::uint32_t j) const { return (j - lo < len ? t : gt)[j]; }
+    V& own_force(std::size_t i) const { return f[i]; }
+    A& own_torque(std::size_t i) const { return t[i]; }
+  };
+  // Where a tail task puts them: its buffer, for every particle
+  // (NeighborList::tail_offsets).
+  struct TaskSinks {
+    V* f;
+    A* t;
+    const std::int64_t* off;
+    std::int64_t at(std::size_t j) const {
+      return off[j / NeighborList<Dim>::kChunk] + static_cast<std::int64_t>(j);
+    }
+    V& force(std::uint32_t j) const { return f[at(j)]; }
+    A& torque(std::uint32_t j) const { return t[at(j)]; }
+    V& own_force(std::size_t i) const { return f[at(i)]; }
+    A& own_torque(std::size_t i) const { return t[at(i)]; }
   };
 
   struct Stamps {
@@ -523,9 +545,24 @@ class Simulation {
       for (std::size_t i = lo; i < hi;) {
         const std::size_t c = i / kChunk, e = std::min(hi, (c + 1) * kChunk);
         for (int u = 0; u < nt; ++u)
-          if (u != t && nl_.touched(u, c)) add_entries(fbuf_[static_cast<std::size_t>(u)], tbuf_[static_cast<std::size_t>(u)], i, e);
+          if (u != t && nl_.touched(u, c)) {
+            const V* gf = fbuf_[static_cast<std::size_t>(u)].data();
+            const A* gt = tbuf_[static_cast<std::size_t>(u)].data();
+            for (std::size_t q = i; q < e; ++q) {
+              p.f[q] += gf[q];
+              p.tq[q] += gt[q];
+            }
+          }
         for (std::size_t task = 0; task < ntasks; ++task)
-          if (nl_.tail_touched(task, c)) add_entries(task_f_[task], task_t_[task], i, e);
+          if (nl_.tail_touched(task, c)) {
+            const std::int64_t o = nl_.tail_offsets(task)[c];
+            const V* bf = task_f_[task].data();
+            const A* bt = task_t_[task].data();
+            for (std::size_t q = i; q < e; ++q) {
+              p.f[q] += bf[o + static_cast<std::int64_t>(q)];
+              p.tq[q] += bt[o + static_cast<std::int64_t>(q)];
+            }
+          }
         i = e;
       }
     }
@@ -538,23 +575,17 @@ class Simulation {
     return true;
   }
 
-  // Adds a buffer's entries for particles [a, e) to the store.
-  void add_entries(const std::vector<V>& bf, const std::vector<A>& bt, std::size_t a, std::size_t e) {
-    for (std::size_t q = a; q < e; ++q) {
-      p.f[q] += bf[q];
-      p.tq[q] += bt[q];
-    }
-  }
-
   // Rows [a, e) of col into the sinks, through thread t's batch where the law has a batch kernel.
-  void pairs(int t, const std::uint32_t* col, std::size_t a, std::size_t e, const Sinks& sk) {
+  template <class S>
+  void pairs(int t, const std::uint32_t* col, std::size_t a, std::size_t e, const S& sk) {
     if constexpr (HasPairBatch<Law, Dim>::value)
       pairs_batched(batch_[t], col, a, e, sk);
     else
       pairs_scalar(col, a, e, sk);
   }
   // Evaluates what is left in thread t's batch into the sinks.
-  void flush_pairs(int t, const Sinks& sk) {
+  template <class S>
+  void flush_pairs(int t, const S& sk) {
     if constexpr (HasPairBatch<Law, Dim>::value)
       if (batch_[t].n > 0) flush(batch_[t], sk);
   }
@@ -599,8 +630,9 @@ class Simulation {
     const std::size_t task = static_cast<std::size_t>(u * NeighborList<Dim>::kTails + k);
     std::vector<V>& bf = task_f_[task];
     std::vector<A>& bt = task_t_[task];
-    zero_chunks(bf, bt, nl_.tail_chunks(task));
-    const Sinks sk{bf.data(), bt.data(), bf.data(), bt.data(), 0, 0};
+    std::fill(bf.begin(), bf.end(), V::Zero());
+    std::fill(bt.begin(), bt.end(), A::Zero());
+    const TaskSinks sk{bf.data(), bt.data(), nl_.tail_offsets(task)};
     const auto [a, e] = nl_.tail(u, k);
     nl_.for_row_segments(a, e, [&](std::size_t r, std::size_t re, const std::uint32_t* col) { pairs(t, col, r, re, sk); });
     flush_pairs(t, sk);
@@ -638,7 +670,8 @@ class Simulation {
 
   // The pair loop over rows [lo, hi) (held in col), one contact at a time:
   // i's own sums stay in registers.
-  void pairs_scalar(const std::uint32_t* col, std::size_t lo, std::size_t hi, const Sinks& sk) {
+  template <class S>
+  void pairs_scalar(const std::uint32_t* col, std::size_t lo, std::size_t hi, const S& sk) {
     for (std::size_t i = lo; i < hi; ++i) {
       const V xi = p.x[i], vi = p.v[i];
       const A wi = p.w[i];
@@ -659,26 +692,29 @@ class Simulation {
         sk.force(j) -= c.f;
         sk.torque(j) += c.tj;
       }
-      sk.f[i] += fi;
-      sk.t[i] += ti;
+      sk.own_force(i) += fi;
+      sk.own_torque(i) += ti;
     }
   }
 
   // Evaluates the contacts gathered in batch b and adds them to both
   // particles in the order they were found.
-  void flush(PairBatch<Dim>& b, const Sinks& sk) {
+  template <class S>
+  void flush(PairBatch<Dim>& b, const S& sk) {
     constexpr int kA = PairBatch<Dim>::kAng;
     law.pair_force_batch(b);
     for (int q = 0; q < b.n; ++q) {
       const std::uint32_t i = b.i[q], j = b.j[q];
+      V& fi = sk.own_force(i);
+      A& ti = sk.own_torque(i);
       V& fj = sk.force(j);
       A& tj = sk.torque(j);
       for (int a = 0; a < Dim; ++a) {
-        sk.f[i][a] += b.f[a][q];
+        fi[a] += b.f[a][q];
         fj[a] -= b.f[a][q];
       }
       for (int a = 0; a < kA; ++a) {
-        sk.t[i][a] += b.ti[a][q];
+        ti[a] += b.ti[a][q];
         tj[a] += b.tj[a][q];
       }
     }
@@ -688,8 +724,8 @@ class Simulation {
   // The pair loop over rows [lo, hi) (held in col) for a law with a batch
   // kernel (contact/pair_batch.hpp): the contacts in range are gathered into
   // batch b and evaluated together (flush); the caller flushes what is left.
-  void pairs_batched(PairBatch<Dim>& b, const std::uint32_t* col, std::size_t lo, std::size_t hi,
-                     const Sinks& sk) {
+  template <class S>
+  void pairs_batched(PairBatch<Dim>& b, const std::uint32_t* col, std::size_t lo, std::size_t hi, const S& sk) {
     constexpr int kA = PairBatch<Dim>::kAng;
     constexpr std::uint32_t kSize = PairBatch<Dim>::kSize;
     for (std::size_t i = lo; i < hi; ++i) {
@@ -789,7 +825,7 @@ class Simulation {
   std::vector<Done> done_;             // per thread, see Gate
   long seq_ = 0;                       // the steps taken by this object, for Done
   long gen_ = 0;                       // the last claim number handed out (Claim)
-  std::vector<std::vector<V>> task_f_;  // per tail task, indexed like the store
+  std::vector<std::vector<V>> task_f_;  // per tail task (NeighborList::tail_offsets)
   std::vector<std::vector<A>> task_t_;
   std::vector<Claim> claims_;  // per tail task
 };

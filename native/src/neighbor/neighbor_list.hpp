@@ -231,6 +231,7 @@ class NeighborList {
         cut_tails();
         tail_touched_.resize(static_cast<std::size_t>(nt_ * kTails));
         tail_list_.resize(static_cast<std::size_t>(nt_ * kTails));
+        tail_offset_.resize(static_cast<std::size_t>(nt_ * kTails));
       }
       for (int k = 0; k < tails(); ++k) tail_touched_[static_cast<std::size_t>(t * kTails + k)].assign(n_chunks, 0);
       // Which chunks outside its block thread t's rows write to (one thread
@@ -265,6 +266,12 @@ class NeighborList {
       for (int k = 0; k < tails(); ++k) {
         const std::size_t task = static_cast<std::size_t>(t * kTails + k);
         chunk_list(tail_touched_[task], tail_list_[task]);
+        // The task's buffer holds its chunks one after another.
+        auto& off = tail_offset_[task];
+        off.assign(n_chunks, 0);
+        const auto& list = tail_list_[task];
+        for (std::size_t q = 0; q < list.size(); ++q)
+          off[list[q]] = static_cast<std::int64_t>(q * kChunk) - static_cast<std::int64_t>(list[q] * kChunk);
       }
     }
     ++builds_;
@@ -316,6 +323,9 @@ class NeighborList {
   // Which chunks task t * kTails + k writes (its buffer), as flags and in order.
   bool tail_touched(std::size_t task, std::size_t c) const { return tail_touched_[task][c] != 0; }
   const std::vector<std::uint32_t>& tail_chunks(std::size_t task) const { return tail_list_[task]; }
+  // A task's buffer holds only the chunks it writes, in the order of
+  // tail_chunks(): particle j's entry is at tail_offsets(task)[j / kChunk] + j.
+  const std::int64_t* tail_offsets(std::size_t task) const { return tail_offset_[task].data(); }
   std::size_t n_pairs() const {
     std::size_t k = 0;
     for (const auto& c : col_) k += c.size();
@@ -465,6 +475,7 @@ class NeighborList {
   std::vector<std::size_t> tail_begin_;   // per block, the kTails tasks' starts and the block's end
   std::vector<std::vector<std::uint8_t>> tail_touched_;  // per tail task: see tail_touched()
   std::vector<std::vector<std::uint32_t>> tail_list_;
+  std::vector<std::vector<std::int64_t>> tail_offset_;  // per tail task: see tail_offsets()
   std::vector<V> x_ref_;
   double skin_ = 0.0;
   double d_max_ = 0.0;         // the largest diameter at the build
