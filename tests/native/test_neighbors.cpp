@@ -227,7 +227,8 @@ TEST(Neighbors, TwoThreadBlocksBalanceWork) {
   ASSERT_EQ(nl.tails(), NL::kTails);
   for (int t = 0; t < 2; ++t) {
     const auto [blo, bhi] = nl.block(t);
-    const double share = static_cast<double>(NL::kTailPercent) / 100.0 * sum(blo, bhi);
+    // The engine's integer share: the block's work times the percentage, divided by 100, rounded down.
+    const double share = std::floor(static_cast<double>(NL::kTailPercent) * sum(blo, bhi) / 100.0);
     EXPECT_EQ(nl.core_end(t), nl.tail(t, 0).first);
     EXPECT_GT(nl.core_end(t), blo);
     EXPECT_EQ(nl.tail(t, NL::kTails - 1).second, bhi);
