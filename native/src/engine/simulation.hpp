@@ -518,8 +518,7 @@ class Simulation {
           }
         }
         if (!zeroed && r1 > own_end) {
-          zero_chunks(fbuf_[static_cast<std::size_t>(t)], tbuf_[static_cast<std::size_t>(t)],
-                      nl_.touched_chunks(t));
+          zero_ghosts(t);
           zeroed = true;
         }
         pairs(t, col, r, r1, sk);
@@ -657,14 +656,16 @@ class Simulation {
     while (PhaseTimers::Clock::now() < until) spin_pause();
   }
 
-  // Zeroes the given chunks of a buffer.
-  void zero_chunks(std::vector<V>& bf, std::vector<A>& bt, const std::vector<std::uint32_t>& chunks) {
+  // Zeroes the chunks of thread t's ghost buffer that its rows write.
+  void zero_ghosts(int t) {
     constexpr std::size_t kChunk = NeighborList<Dim>::kChunk;
+    V* gf = fbuf_[static_cast<std::size_t>(t)].data();
+    A* gt = tbuf_[static_cast<std::size_t>(t)].data();
     const std::size_t n = p.size();
-    for (const std::uint32_t c : chunks) {
+    for (const std::uint32_t c : nl_.touched_chunks(t)) {
       const std::size_t a = c * kChunk, e = std::min(n, a + kChunk);
-      std::fill(bf.begin() + static_cast<std::ptrdiff_t>(a), bf.begin() + static_cast<std::ptrdiff_t>(e), V::Zero());
-      std::fill(bt.begin() + static_cast<std::ptrdiff_t>(a), bt.begin() + static_cast<std::ptrdiff_t>(e), A::Zero());
+      std::fill(gf + a, gf + e, V::Zero());
+      std::fill(gt + a, gt + e, A::Zero());
     }
   }
 

@@ -245,20 +245,18 @@ class NeighborList {
       if (nt_ > 1)
         for_row_segments(blo, bhi, [&](std::size_t a, std::size_t e, const std::uint32_t* c) {
           for (std::size_t i = a; i < e; ++i) {
-            std::uint8_t out_i = 0;
-            for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k)
-              out_i |= static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
-            if (out_i && own_end == bhi) own_end = i;
             // The core's rows write the store for the block and a ghost
             // buffer for the rest; a tail task writes its buffer for all.
-            if (i < core) {
-              for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k)
-                mark[c[k] / kChunk] |= static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
-            } else {
-              auto& tm = tail_touched_[static_cast<std::size_t>(tail_of(t, i))];
-              tm[i / kChunk] = 1;
-              for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k) tm[c[k] / kChunk] = 1;
+            const bool in_core = i < core;
+            auto& tm = in_core ? mark : tail_touched_[static_cast<std::size_t>(tail_of(t, i))];
+            tm[i / kChunk] |= static_cast<std::uint8_t>(!in_core);
+            std::uint8_t out_i = 0;
+            for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k) {
+              const std::uint8_t o = static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
+              tm[c[k] / kChunk] |= static_cast<std::uint8_t>(o | !in_core);
+              out_i |= o;
             }
+            if (out_i && own_end == bhi) own_end = i;
           }
         });
       own_end_[t] = own_end;
