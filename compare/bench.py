@@ -44,22 +44,18 @@ class Case:
     label: str          # what runs: law, integrator
     workers: int        # threads (native) or MPI ranks (LAMMPS)
     sets: list = field(default_factory=list)
-    copies: int = 1     # runs started at once; the rate is their sum (the machine's ceiling, below)
+    copies: int = 1     # native: 1-thread runs at once, forked from one state; the rate is their sum (the ceiling)
     repeat: int = 1     # native: runs of the same stretch per round, their median the round's rate
     rates: list = field(default_factory=list)
     builds_per_step: list = field(default_factory=list)  # native: neighbour-list builds per timed step
     particles: int = 0
     rss_per_particle: float = 0.0  # native: peak resident memory / particles
+    overlaps: list = field(default_factory=list)  # copies: the share of the shortest run all of them ran, per round
     scratch: Path = Path("/tmp/compare_bench_yade.h5")  # YADE's output, overwritten each round
 
     def command(self, timed: float, settle: float) -> list[str]:
         drum = "drum" in self.scene
         sets = sum((["--set", kv] for kv in self.sets), [])
-        if self.engine == "native":
-            exe = str(native_bin())
-            span = ["--rotations" if drum else "--seconds", repr(timed)]
-            return [exe, "bench", self.scene, "--threads", str(self.workers), "--repeat", str(self.repeat),
-                    "--settle", repr(settle), "--json", *span, *sets]
         if self.engine == "yade":
             total = settle + timed
             length = ([f"run.rotations={total!r}", f"run.snapshot_every={2 * total!r}",
@@ -73,10 +69,9 @@ class Case:
                 "--json", *span, *sets]
 
     def measure(self, timed: float, settle: float) -> float:
+        """One run of a peer engine (native cases run in groups: measure_native)."""
         cmd = self.command(timed, settle)
         env = dict(os.environ, PYTHONPATH=str(ROOT))
-        if self.copies > 1:
-            return self.measure_copies(cmd, env)
         p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
         if p.returncode != 0:
             raise RuntimeError(f"bench case {self.key} failed ({' '.join(cmd)}):\n{p.stderr.strip()}")
@@ -85,39 +80,9 @@ class Case:
             with h5py.File(self.scratch, "r") as h5:
                 rate = float(h5.attrs["timed_atom_steps_per_second"])
                 self.particles = int(h5["frames/id"].shape[1])
-            self.rates.append(rate)
-            return rate
-        data = json.loads(p.stdout)
-        if self.engine == "native":
-            row = data[0]
-            rate, self.particles = float(row["particle_steps_per_second"]), int(row["particles"])
-            self.rss_per_particle = float(row.get("peak_rss_bytes_per_particle", 0.0))
-            if row.get("steps"):
-                self.builds_per_step.append(float(row.get("neighbor_builds", 0)) / float(row["steps"]))
         else:
+            data = json.loads(p.stdout)
             rate, self.particles = float(data["atom_steps_per_second"]), int(data["atoms"])
-        self.rates.append(rate)
-        return rate
-
-    def measure_copies(self, cmd, env) -> float:
-        """`copies` identical native runs started together, each on its own
-        core; the rate is the sum of theirs. With one worker each, nothing is
-        shared between them but the machine (caches, memory, the host), so the
-        sum over one run alone is the most that many workers can gain here when
-        they need not finish together (machine_probe: what they get when they
-        must)."""
-        if self.engine != "native":
-            raise RuntimeError(f"bench case {self.key}: copies are for the native engine only")
-        procs = [subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-                 for _ in range(self.copies)]
-        results = [p.communicate() for p in procs]  # every copy finishes before any failure is raised
-        rate = 0.0
-        for p, (out, err) in zip(procs, results):
-            if p.returncode != 0:
-                raise RuntimeError(f"bench case {self.key} failed ({' '.join(cmd)}):\n{err.strip()}")
-            row = json.loads(out)[0]
-            rate += float(row["particle_steps_per_second"])
-            self.particles = int(row["particles"])
         self.rates.append(rate)
         return rate
 
@@ -128,7 +93,8 @@ class Case:
                 "median": statistics.median(self.rates), "min": min(self.rates), "max": max(self.rates),
                 "rates": list(self.rates),
                 "peak_rss_bytes": self.rss_per_particle * self.particles if self.rss_per_particle else None,
-                "builds_per_step": statistics.median(self.builds_per_step) if self.builds_per_step else None}
+                "builds_per_step": statistics.median(self.builds_per_step) if self.builds_per_step else None,
+                "overlap_min": min(self.overlaps) if self.overlaps else None}
 
 
 def default_cases(threads=(1, 2), lammps_ranks=(1, 2)) -> list[Case]:
@@ -297,16 +263,76 @@ def ratio(num: dict, den: dict, what: str) -> dict:
     return out
 
 
+def groups(cases) -> list[list[Case]]:
+    """The cases in the order given, the native ones of one scene, settings and
+    repeat count gathered into one group (at the place of its first case): a
+    group is one `granular bench` per round, which settles once and times every
+    thread count and the ceiling from that state, each in a process forked from
+    it, one after another. The ratios between them then compare the same
+    stretch of flow run seconds apart, not minutes."""
+    out, native = [], {}
+    for c in cases:
+        if c.engine != "native":
+            out.append([c])
+            continue
+        k = (c.scene, tuple(c.sets), c.repeat)
+        if k not in native:
+            native[k] = []
+            out.append(native[k])
+        native[k].append(c)
+    return out
+
+
+def native_command(group: list[Case], timed: float, settle: float) -> list[str]:
+    """`granular bench` for a group of native cases (groups): every thread
+    count of the group, and the ceiling's copies if it has that case."""
+    c0 = group[0]
+    threads = sorted({c.workers for c in group if c.copies == 1}) or [1]
+    ceiling = max((c.copies for c in group if c.copies > 1), default=0)
+    drum = "drum" in c0.scene
+    return [str(native_bin()), "bench", c0.scene, "--threads", *map(str, threads), "--repeat", str(c0.repeat),
+            "--settle", repr(settle), "--json", "--rotations" if drum else "--seconds", repr(timed),
+            *(["--ceiling", str(ceiling)] if ceiling else []), *sum((["--set", kv] for kv in c0.sets), [])]
+
+
+def measure_native(group: list[Case], timed: float, settle: float) -> list[float]:
+    """One `granular bench` for a group of native cases; appends each case's rate."""
+    cmd = native_command(group, timed, settle)
+    p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    keys = ", ".join(c.key for c in group)
+    if p.returncode != 0:
+        raise RuntimeError(f"bench cases {keys} failed ({' '.join(cmd)}):\n{p.stderr.strip()}")
+    rows = {(int(r["threads"]), int(r.get("copies", 1))): r for r in json.loads(p.stdout)}
+    rates = []
+    for c in group:
+        row = rows.get((c.workers, c.copies))
+        if row is None:
+            raise RuntimeError(f"bench case {c.key}: `granular bench` gave no row for {c.workers} thread(s) x "
+                               f"{c.copies} ({' '.join(cmd)})")
+        rate = float(row["particle_steps_per_second"])
+        if c.copies > 1:
+            c.overlaps.append(float(row["overlap"]))
+        c.particles = int(row["particles"])
+        c.rss_per_particle = float(row.get("peak_rss_bytes_per_particle", 0.0))
+        if row.get("steps"):
+            c.builds_per_step.append(float(row.get("neighbor_builds", 0)) / float(row["steps"]))
+        c.rates.append(rate)
+        rates.append(rate)
+    return rates
+
+
 def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=1.0, box_settle=1.0,
               progress=sys.stderr) -> dict:
     t_start = time.time()
     for r in range(rounds):
-        for c in cases:
-            drum = "drum" in c.scene
-            rate = c.measure(drum_rotations if drum else box_seconds,
-                             drum_settle if drum else box_settle)
+        for g in groups(cases):
+            drum = "drum" in g[0].scene
+            timed, settle = (drum_rotations, drum_settle) if drum else (box_seconds, box_settle)
+            rates = measure_native(g, timed, settle) if g[0].engine == "native" else [g[0].measure(timed, settle)]
             if progress:
-                print(f"round {r + 1}/{rounds}  {c.key:28s} {rate:10.3g} particle-steps/s", file=progress, flush=True)
+                for c, rate in zip(g, rates):
+                    print(f"round {r + 1}/{rounds}  {c.key:28s} {rate:10.3g} particle-steps/s", file=progress,
+                          flush=True)
     rows = [c.summary() for c in cases]
     by = {row["key"]: row for row in rows}
     ratios = [ratio(by[a], by[b], w) for a, b, w in RATIOS if a in by and b in by]
@@ -348,7 +374,9 @@ def markdown(result) -> str:
     lines = ["| case | engine | what runs | workers | particles | particle-steps/s (median) | min – max |",
              "|---|---|---|---|---|---|---|"]
     for r in result["cases"]:
-        lines.append(f"| {r['key']} | {r['engine']} | {r['label']} | {r['workers']} | {r['particles']} | "
+        label = r["label"] + (f" (all ran together for at least {100 * r['overlap_min']:.0f} % of the shortest)"
+                              if r.get("overlap_min") is not None else "")
+        lines.append(f"| {r['key']} | {r['engine']} | {label} | {r['workers']} | {r['particles']} | "
                      f"{r['median']:.3g} | {r['min']:.3g} – {r['max']:.3g} |")
     lines += ["", "| ratio | of the medians | round by round: median (min – max) |", "|---|---|---|"]
     lines += [f"| {q['what']} | {q['ratio']:.2f} | " + (

@@ -220,32 +220,68 @@ def test_bench_counts_list_builds_and_a_wider_skin_builds_less_often():
     assert wide["builds_per_step"] < 0.7 * narrow["builds_per_step"], sweep
 
 
-def test_bench_ceiling_runs_its_copies_at_once_and_sums_them(tmp_path, monkeypatch):
-    """compare bench's ceiling case (two 1-thread runs at once, the machine's
-    limit for the thread ratios) must start its copies together, not one after
-    the other, and report the sum of their rates. A stand-in engine logs when
-    each copy runs and prints a fixed rate."""
-    from compare.bench import Case
-    log = tmp_path / "spans.txt"
+def test_bench_ceiling_runs_its_copies_at_once_and_sums_them():
+    """granular bench --ceiling 2 (two 1-thread runs at once, the machine's
+    limit for the thread ratios) must run its copies together, not one after
+    the other, each timing the same settled state, and report the sum of their
+    rates. Each run reports when it began and ended on the system's monotonic
+    clock; the ceiling row carries the share of the shorter run during which
+    both ran."""
+    out = subprocess.run([str(BIN), "bench", str(ROOT / "scenes/drum/A.toml"), "--threads", "1", "--ceiling", "2",
+                          "--rotations", "0.05", "--settle", "0.05", "--repeat", "2", "--json",
+                          "--set", "drum.length=28"], capture_output=True, text=True, check=True).stdout
+    rows = {(r["threads"], r["copies"]): r for r in json.loads(out)}
+    assert set(rows) == {(1, 1), (1, 2)}
+    one, two = rows[(1, 1)], rows[(1, 2)]
+    assert len(two["copy_rates"]) == 2
+    assert two["particle_steps_per_second"] in two["rates"]
+    assert sum(two["copy_rates"]) == pytest.approx(two["particle_steps_per_second"], rel=1e-12)
+    assert two["overlap"] > 0.5, f"the copies ran one after the other: overlap {two['overlap']}"
+    assert one["steps"] == two["steps"] and one["particles"] == two["particles"] == 968
+    assert two["speedup_vs_first_per_round"] == pytest.approx([a / b for a, b in zip(two["rates"], one["rates"])])
+
+
+def test_compare_bench_runs_a_scenes_thread_counts_and_ceiling_in_one_command(tmp_path, monkeypatch):
+    """compare bench gathers the native cases of one scene and settings (1 and
+    2 threads, the ceiling) into one `granular bench` per round, so their
+    ratios compare one settled state timed seconds apart, and hands each case
+    its own row; cases with other settings run on their own. A stand-in engine
+    logs its command lines and answers with a rate per row."""
+    from compare.bench import default_cases, run_bench
+    log = tmp_path / "calls.txt"
     fake = tmp_path / "granular"
     fake.write_text(f"""#!/usr/bin/python3
-import json, time
-t0 = time.time()
-time.sleep(1.0)
+import json, sys
+a = sys.argv
 with open({str(log)!r}, "a") as f:
-    f.write(f"{{t0}} {{time.time()}}\\n")
-print(json.dumps([{{"particle_steps_per_second": 1.5e6, "particles": 4664}}]))
+    f.write(json.dumps(a) + "\\n")
+threads = [int(x) for x in a[a.index("--threads") + 1:a.index("--repeat")]]
+rows = [{{"threads": t, "copies": 1, "particle_steps_per_second": 1e6 * t, "particles": 4664,
+          "steps": 10, "neighbor_builds": 1}} for t in threads]
+if "--ceiling" in a:
+    rows.append({{"threads": 1, "copies": int(a[a.index("--ceiling") + 1]), "particle_steps_per_second": 2.5e6,
+                 "particles": 4664, "steps": 10, "neighbor_builds": 1, "overlap": 0.97}})
+print(json.dumps(rows))
 """)
     fake.chmod(0o755)
     monkeypatch.setenv("GRANULAR_BIN", str(fake))
-    case = Case("drum-native-rapaport-2x1t", "scenes/drum/A.toml", "native", "ceiling", 1, copies=2)
-    rate = case.measure(0.1, 0.1)
-    assert rate == pytest.approx(3.0e6), rate
-    spans = sorted(tuple(map(float, line.split())) for line in log.read_text().splitlines())
-    assert len(spans) == 2
-    (a0, a1), (b0, b1) = spans
-    assert b0 < a1, f"the copies ran one after the other: {spans}"
-    assert case.summary()["copies"] == 2 and case.particles == 4664
+    cases = [c for c in default_cases() if c.engine == "native" and c.scene.startswith("scenes/drum")]
+    assert {c.key for c in cases} == {"drum-native-rapaport-1t", "drum-native-rapaport-2t",
+                                      "drum-native-linear-1t", "drum-native-linear-2t", "drum-native-rapaport-2x1t"}
+    res = run_bench(cases, rounds=2, progress=None)
+    calls = [json.loads(line) for line in log.read_text().splitlines()]
+    assert len(calls) == 4, calls  # two groups (Rapaport with its ceiling, linear), two rounds
+    rap = [c for c in calls if "contact.law=linear" not in c]
+    assert all(c[c.index("--threads") + 1:c.index("--repeat")] == ["1", "2"] for c in calls)
+    assert all(c[c.index("--ceiling") + 1] == "2" for c in rap) and not any("--ceiling" in c for c in calls
+                                                                             if c not in rap)
+    by = {r["key"]: r for r in res["cases"]}
+    assert by["drum-native-rapaport-2t"]["rates"] == [2e6, 2e6]
+    assert by["drum-native-rapaport-2x1t"]["rates"] == [2.5e6, 2.5e6]
+    assert by["drum-native-rapaport-2x1t"]["overlap_min"] == pytest.approx(0.97)
+    (q,) = [q for q in res["ratios"] if q["numerator"] == "drum-native-rapaport-2t"
+            and q["denominator"] == "drum-native-rapaport-1t"]
+    assert q["per_round"] == pytest.approx([2.0, 2.0])
 
 
 def test_bench_ratio_pairs_the_rounds_as_well_as_the_medians():
@@ -273,13 +309,14 @@ def test_bench_scaling_times_the_same_stretch_of_the_flow_at_every_size():
     drum's contacts and builds per step change as it runs, so every size
     settles and times the same rotations, and the smaller drums repeat that
     stretch (the median of their runs) rather than time a longer one."""
-    from compare.bench import scaling_cases
+    from compare.bench import groups, native_command, scaling_cases
 
     def arg(cmd, flag):
         return cmd[cmd.index(flag) + 1]
 
     cases = scaling_cases()
-    cmds = [c.command(1.0, 0.5) for c in cases]
+    assert [len(g) for g in groups(cases)] == [1] * len(cases)  # every size its own command
+    cmds = [native_command([c], 1.0, 0.5) for c in cases]
     assert len({arg(c, "--rotations") for c in cmds}) == 1 and len({arg(c, "--settle") for c in cmds}) == 1
     lengths = [float(arg(c, "--set").split("=")[1]) for c in cmds]
     repeats = [int(arg(c, "--repeat")) for c in cmds]

@@ -3,7 +3,8 @@
 //                [--checkpoint-every MINUTES] [--checkpoint-steps N]
 //   granular init SCENE [-o INIT.h5] [--force] [--set key=value]...
 //   granular info SCENE [--set key=value]... [--json]
-//   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S]
+//   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S] [--repeat K]
+//                  [--ceiling N] [--json]
 // SCENE is a drum (Rapaport 2002) or shaken-box (Poeschel and Herrmann 1995)
 // scene file; its scene.kind picks the model. Exit status (docs/errors.md):
 // 0 done, 2 refused before anything ran (bad scene, bad command line, existing
@@ -15,6 +16,8 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -25,6 +28,7 @@
 
 #include "engine/box.hpp"
 #include "engine/drum.hpp"
+#include "app/bench_children.hpp"
 #include "engine/run_control.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
@@ -369,6 +373,107 @@ int init_scene(const Loaded& l, const std::string& scene_path, std::string out_p
   return 0;
 }
 
+
+// granular bench: settle once (one thread), then `rounds` rounds, each timing
+// every thread count once and, with ceiling > 0, that many 1-thread runs at
+// once, every run a child forked from the settled state (app/bench_children.hpp).
+// Per thread count: the median over the rounds, the spread, every round's rate
+// and the phase timers of the median round; per round, the rate over the
+// first thread count's in the same round (the steadier figure on a shared
+// host: its two runs were seconds apart).
+int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int ceiling, double settle, double span,
+              bool as_json) {
+  omp_set_num_threads(1);
+  std::optional<DrumSim> drum;
+  std::optional<BoxSim> box;
+  if (l.drum)
+    drum = settle_drum(*l.drum, settle < 0 ? 0.5 : settle);
+  else
+    box = settle_box(*l.box, settle < 0 ? 1.0 : settle);
+  const double settled_peak = peak_rss_bytes();
+  const auto now = [] { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); };
+  const auto timed = [&] {
+    const double begun = now();  // the system's monotonic clock: the same in every process
+    RunReport r = drum ? time_drum(*l.drum, *drum, span) : time_box(*l.box, *box, span);
+    return nlohmann::json{{"rate", r.particle_steps_per_second}, {"particles", r.particles},
+                          {"begun", begun}, {"ended", now()},
+                          {"seconds", r.seconds}, {"steps", r.steps}, {"neighbor_builds", r.neighbor_builds},
+                          {"timing", r.timing}, {"peak_rss_bytes", peak_rss_bytes()}};
+  };
+  struct Series {
+    int threads, copies;
+    std::vector<nlohmann::json> runs;  // per round (copies: the first child's, its rate the sum)
+  };
+  std::vector<Series> series;
+  for (int t : threads) series.push_back({t, 1, {}});
+  if (ceiling > 0) series.push_back({1, ceiling, {}});
+  for (int k = 0; k < rounds; ++k)
+    for (Series& s : series) {
+      std::vector<nlohmann::json> kids = bench::in_children(timed, s.threads, s.copies);
+      nlohmann::json run = kids.front();
+      double sum = 0.0, begun = 0.0, ended = INFINITY, shortest = INFINITY;
+      for (const auto& c : kids) {
+        sum += c["rate"].get<double>();
+        begun = std::max(begun, c["begun"].get<double>());
+        ended = std::min(ended, c["ended"].get<double>());
+        shortest = std::min(shortest, c["ended"].get<double>() - c["begun"].get<double>());
+        run["copy_rates"].push_back(c["rate"]);
+      }
+      run["rate"] = sum;
+      // The share of the shortest run during which every copy ran.
+      run["overlap"] = std::max(0.0, ended - begun) / shortest;
+      s.runs.push_back(std::move(run));
+    }
+  nlohmann::json res = nlohmann::json::array();
+  for (const Series& s : series) {
+    std::vector<double> rates, per_round;
+    for (std::size_t k = 0; k < s.runs.size(); ++k) {
+      rates.push_back(s.runs[k]["rate"].get<double>());
+      per_round.push_back(rates.back() / series.front().runs[k]["rate"].get<double>());
+    }
+    std::vector<std::size_t> by(rates.size());
+    for (std::size_t k = 0; k < by.size(); ++k) by[k] = k;
+    std::sort(by.begin(), by.end(), [&](std::size_t a, std::size_t b) { return rates[a] < rates[b]; });
+    const nlohmann::json& med = s.runs[by[by.size() / 2]];
+    std::vector<double> pr = per_round;
+    std::sort(pr.begin(), pr.end());
+    const double rate = med["rate"].get<double>(), ratio = pr[pr.size() / 2];
+    const double particles = med["particles"].get<double>();
+    // A run's peak: its set-up and settling (this process) or its timed steps
+    // (the children), whichever is larger.
+    double peak = settled_peak;
+    for (const auto& r : s.runs) peak = std::max(peak, r["peak_rss_bytes"].get<double>());
+    res.push_back({{"scene", l.name()},
+                   {"threads", s.threads},
+                   {"copies", s.copies},
+                   {"particles", med["particles"]},
+                   {"particle_steps_per_second", rate},
+                   {"min", rates[by.front()]},
+                   {"max", rates[by.back()]},
+                   {"rates", rates},
+                   {"repeats", rounds},
+                   {"speedup_vs_first", ratio},
+                   {"speedup_vs_first_per_round", per_round},
+                   {"seconds", med["seconds"]},
+                   {"steps", med["steps"]},
+                   {"neighbor_builds", med["neighbor_builds"]},
+                   {"copy_rates", med.value("copy_rates", nlohmann::json::array())},
+                   {"overlap", med.value("overlap", 1.0)},
+                   // peak resident memory of a run (one simulation in the process), per particle
+                   {"peak_rss_bytes_per_particle", peak / particles}});
+    if (!as_json) {
+      std::printf("scene %s  threads %d%s  %.3e particle-steps/s  (median of %d, range %.3e-%.3e; x%.2f, the "
+                  "median round's ratio to the first)  peak memory %.0f bytes/particle\n",
+                  l.name().c_str(), s.threads,
+                  s.copies > 1 ? (" x " + std::to_string(s.copies) + " runs at once, summed").c_str() : "", rate,
+                  rounds, rates[by.front()], rates[by.back()], ratio, peak / particles);
+      if (s.copies == 1) std::printf("%s", med["timing"].get<std::string>().c_str());
+    }
+  }
+  if (as_json) std::cout << res.dump(2) << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -423,8 +528,15 @@ int main(int argc, char** argv) {
   bench->add_option("--settle", settle, "settling before timing: rotations (drum, default 0.5) or seconds (box, 1)");
   bench->add_option("--rotations", bench_rot, "drum: rotations timed");
   bench->add_option("--seconds", bench_seconds, "shaken box: seconds of shaking timed");
-  bench->add_option("--repeat", repeat, "repetitions per thread count; the median is reported")
+  bench->add_option("--repeat", repeat,
+                    "rounds: each times every thread count once (and the ceiling), from the same settled state; "
+                    "the median is reported")
       ->check(CLI::PositiveNumber);
+  int ceiling = 0;
+  bench->add_option("--ceiling", ceiling,
+                    "also time N 1-thread runs at once each round, their rates summed: what N workers get on this "
+                    "machine when nothing is shared but the machine (0: not timed)")
+      ->check(CLI::NonNegativeNumber);
   bench->add_flag("--json", bench_json, "print JSON");
 
   try {
@@ -454,43 +566,7 @@ int main(int argc, char** argv) {
     if (*bench) {
       const Loaded l = load(scene_path, sets);
       if (bench_threads.empty()) bench_threads = {1, omp_get_num_procs()};
-      nlohmann::json res = nlohmann::json::array();
-      double base = 0.0;
-      for (int t : bench_threads) {
-        omp_set_num_threads(t);
-        // The machine is shared: repeat and report the median, with the spread.
-        std::vector<RunReport> reps;
-        for (int k = 0; k < repeat; ++k)
-          reps.push_back(l.drum ? bench_drum(*l.drum, settle < 0 ? 0.5 : settle, bench_rot)
-                                : bench_box(*l.box, settle < 0 ? 1.0 : settle, bench_seconds));
-        std::sort(reps.begin(), reps.end(), [](const RunReport& a, const RunReport& b) {
-          return a.particle_steps_per_second < b.particle_steps_per_second;
-        });
-        const RunReport& r = reps[reps.size() / 2];
-        if (base == 0.0) base = r.particle_steps_per_second;
-        res.push_back({{"scene", l.name()},
-                       {"threads", t},
-                       {"particles", r.particles},
-                       {"particle_steps_per_second", r.particle_steps_per_second},
-                       {"min", reps.front().particle_steps_per_second},
-                       {"max", reps.back().particle_steps_per_second},
-                       {"repeats", repeat},
-                       {"speedup_vs_first", r.particle_steps_per_second / base},
-                       {"seconds", r.seconds},
-                       {"steps", r.steps},
-                       {"neighbor_builds", r.neighbor_builds},
-                       // peak resident memory of the process so far (the largest run measured), per particle
-                       {"peak_rss_bytes_per_particle", peak_rss_bytes() / static_cast<double>(r.particles)}});
-        if (!bench_json)
-          std::printf("scene %s  threads %d  %.3e particle-steps/s  (median of %d, range %.3e-%.3e; x%.2f)  "
-                      "peak memory %.0f bytes/particle\n%s",
-                      l.name().c_str(), t, r.particle_steps_per_second, repeat,
-                      reps.front().particle_steps_per_second, reps.back().particle_steps_per_second,
-                      r.particle_steps_per_second / base, peak_rss_bytes() / static_cast<double>(r.particles),
-                      r.timing.c_str());
-      }
-      if (bench_json) std::cout << res.dump(2) << "\n";
-      return 0;
+      return run_bench(l, bench_threads, repeat, ceiling, settle, l.drum ? bench_rot : bench_seconds, bench_json);
     }
   } catch (const SceneError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

@@ -271,15 +271,16 @@ RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, 
   return std::visit([&](auto& v) { return run_impl(s, v, out, progress, ctl); }, sim);
 }
 
-RunReport bench_box(const BoxScene& s, double settle, double seconds) {
+BoxSim settle_box(const BoxScene& s, double settle) {
   BoxScene a = s;
   a.settle = settle;
   a.duration = 0.0;
   BoxSim sim = make_box(a);
   run_box(a, sim, nullptr, false);
-  // time `seconds` of shaking, continuing from the settled state
-  a.duration = seconds;
-  a.settle = 0.0;
+  return sim;
+}
+
+RunReport time_box(const BoxScene& s, BoxSim& sim, double seconds) {
   return std::visit(
       [&](auto& v) {
         const long steps = std::lround(seconds / s.dt);

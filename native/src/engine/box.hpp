@@ -53,6 +53,9 @@ BoxSim make_box(const BoxScene& s);
 // ctl: checkpoints, and the state to resume from (engine/run_control.hpp).
 RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, const RunControl& ctl = RunControl{});
 
-RunReport bench_box(const BoxScene& s, double settle, double seconds);
+// For `granular bench`: the box after `settle` seconds of settling (no
+// output), and `seconds` of shaking timed from that state (advancing it).
+BoxSim settle_box(const BoxScene& s, double settle);
+RunReport time_box(const BoxScene& s, BoxSim& sim, double seconds);
 
 }  // namespace granular

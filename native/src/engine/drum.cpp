@@ -248,13 +248,19 @@ RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progres
   return std::visit([&](auto& v) { return run_impl(s, v, out, progress, ctl); }, sim);
 }
 
-RunReport bench_drum(const DrumScene& s, double settle, double rotations) {
+DrumSim settle_drum(const DrumScene& s, double settle) {
   DrumScene a = s;
   a.rotations = settle;
   a.snapshot_every = a.profile_every = 1e9;
   DrumSim sim = make_drum(a);
   if (settle > 0) run_drum(a, sim, nullptr, false);
+  return sim;
+}
+
+RunReport time_drum(const DrumScene& s, DrumSim& sim, double rotations) {
+  DrumScene a = s;
   a.rotations = rotations;
+  a.snapshot_every = a.profile_every = 1e9;
   const long builds0 = std::visit([](auto& v) { return v.neighbors().builds(); }, sim);
   RunReport r = run_drum(a, sim, nullptr, false);
   std::visit([&](auto& v) {

@@ -54,6 +54,9 @@ RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progres
                    const RunControl& ctl = RunControl{});
 
 // Settle for `settle` rotations, then time `rotations` rotations.
-RunReport bench_drum(const DrumScene& s, double settle, double rotations);
+// For `granular bench`: the drum after `settle` rotations (no output), and
+// `rotations` more timed from that state (advancing it).
+DrumSim settle_drum(const DrumScene& s, double settle);
+RunReport time_drum(const DrumScene& s, DrumSim& sim, double rotations);
 
 }  // namespace granular
