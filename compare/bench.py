@@ -163,6 +163,14 @@ def scaling(rows) -> dict | None:
     out = {"sizes": [{"particles": r["particles"], "ns_per_particle_step": n,
                       "peak_rss_bytes": r["peak_rss_bytes"]} for r, n in zip(sc, ns)],
            "cost_max_over_min": max(ns) / min(ns)}
+    # The same within each round (its sizes ran one after another, seconds
+    # apart), and the median over the rounds: the steadier figure when the
+    # host's speed drifts between rounds.
+    if len({len(r["rates"]) for r in sc}) == 1:
+        per_round = [max(r["rates"][k] for r in sc) / min(r["rates"][k] for r in sc)
+                     for k in range(len(sc[0]["rates"]))]
+        out.update(cost_max_over_min_per_round=per_round,
+                   cost_max_over_min_per_round_median=statistics.median(per_round))
     a, b = sc[0], sc[-1]
     if a["peak_rss_bytes"] and b["peak_rss_bytes"]:
         out["marginal_bytes_per_particle"] = (b["peak_rss_bytes"] - a["peak_rss_bytes"]) / (b["particles"] - a["particles"])
@@ -387,7 +395,10 @@ def markdown(result) -> str:
         lines += ["", "| particles | ns per particle-step | peak memory (MB) |", "|---|---|---|"]
         lines += [f"| {z['particles']} | {z['ns_per_particle_step']:.1f} | "
                   f"{z['peak_rss_bytes'] / 1e6:.1f} |" for z in sc["sizes"]]
-        lines += ["", f"Cost per particle-step, largest over smallest: {sc['cost_max_over_min']:.2f}; "
+        pr = sc.get("cost_max_over_min_per_round")
+        lines += ["", f"Cost per particle-step, largest over smallest: {sc['cost_max_over_min']:.2f} (of the medians)"
+                  + (f", {sc['cost_max_over_min_per_round_median']:.2f} round by round ({min(pr):.2f} – {max(pr):.2f})"
+                     if pr else "") + "; "
                   f"marginal memory {sc.get('marginal_bytes_per_particle', float('nan')):.0f} bytes per particle."]
     sk = result.get("skin")
     if sk:

@@ -352,3 +352,21 @@ def test_thread_probe_reports_its_loop_and_compare_bench_quotes_it(monkeypatch):
     assert probe["round_trip_ns"]["min"] <= probe["round_trip_ns"]["median"] <= probe["round_trip_ns"]["max"]
     line = probe_line(probe)
     assert f"{s['two_threads_one_barrier_per_step']:.2f}" in line and f"{s['two_processes']:.2f}" in line
+
+
+def test_bench_scaling_pairs_the_sizes_round_by_round():
+    """The cost per particle-step over sizes: largest over smallest of the
+    medians, and the same within each round (the sizes of one round ran
+    seconds apart). A host twice as fast in the second round, for every size,
+    changes neither figure; a round where only the large drum slowed shows in
+    its own round's ratio."""
+    from compare.bench import scaling
+    rows = [{"key": f"scale-drum-native-rapaport-L{L}", "particles": n, "median": 0.0, "peak_rss_bytes": None,
+             "rates": rates}
+            for L, n, rates in ((28, 968, [10.0, 20.0, 10.0]), (2800, 103840, [8.0, 16.0, 5.0]))]
+    for r in rows:
+        r["median"] = sorted(r["rates"])[1]
+    sc = scaling(rows)
+    assert sc["cost_max_over_min_per_round"] == pytest.approx([1.25, 1.25, 2.0])
+    assert sc["cost_max_over_min_per_round_median"] == pytest.approx(1.25)
+    assert sc["cost_max_over_min"] == pytest.approx(10.0 / 8.0)
