@@ -26,9 +26,9 @@
 #include <map>
 #include <optional>
 
+#include "app/bench_children.hpp"
 #include "engine/box.hpp"
 #include "engine/drum.hpp"
-#include "app/bench_children.hpp"
 #include "engine/run_control.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
@@ -373,7 +373,6 @@ int init_scene(const Loaded& l, const std::string& scene_path, std::string out_p
   return 0;
 }
 
-
 // granular bench: settle once (one thread), then `rounds` rounds, each timing
 // every thread count once and, with ceiling > 0, that many 1-thread runs at
 // once, every run a child forked from the settled state (app/bench_children.hpp).
@@ -397,11 +396,12 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
   const auto timed = [&] {
     // Untimed first: the first 5 % of the stretch, on the child's threads. The
     // child shares the parent's pages until it writes them, and its first
-    // writes copy them, each copy a fault that, with two threads, stops the
-    // other core to flush its address map: 1-12 % of a 2-thread drum run
-    // (8 of 8 rounds against the same run in one process). Its buffers take
-    // their size for the thread count there too, as a run's do in its first
-    // steps.
+    // writes copy them, a page fault each (with two threads, likely also a
+    // flush of the other core's address map). Timed from the first step, a
+    // 2-thread drum run lost 1-12 % (8 of 8 rounds) against the same run in
+    // one process; with this start, 0.99 (docs/speed_accuracy.md, stop 38).
+    // Its buffers take their size for the thread count here too, as a run's
+    // do in its first steps.
     if (drum)
       time_drum(*l.drum, *drum, kWarm * span);
     else
