@@ -393,6 +393,10 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
     box = settle_box(*l.box, settle < 0 ? 1.0 : settle);
   const double settled_peak = peak_rss_bytes();
   const auto now = [] { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); };
+  // `length` rotations (drum) or seconds (box) from the state in hand.
+  const auto stretch = [&](double length) {
+    return drum ? time_drum(*l.drum, *drum, length) : time_box(*l.box, *box, length);
+  };
   const auto timed = [&] {
     // Untimed first: the first 5 % of the stretch, on the child's threads. The
     // child shares the parent's pages until it writes them, and its first
@@ -402,12 +406,9 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
     // one process; with this start, 0.99 (docs/speed_accuracy.md, stop 38).
     // Its buffers take their size for the thread count here too, as a run's
     // do in its first steps.
-    if (drum)
-      time_drum(*l.drum, *drum, kWarm * span);
-    else
-      time_box(*l.box, *box, kWarm * span);
+    stretch(kWarm * span);
     const double begun = now();  // the system's monotonic clock: the same in every process
-    RunReport r = drum ? time_drum(*l.drum, *drum, span) : time_box(*l.box, *box, span);
+    const RunReport r = stretch(span);
     return nlohmann::json{{"rate", r.particle_steps_per_second}, {"particles", r.particles},
                           {"begun", begun}, {"ended", now()},
                           {"seconds", r.seconds}, {"steps", r.steps}, {"neighbor_builds", r.neighbor_builds},
