@@ -28,6 +28,8 @@
 #include <thread>
 #include <vector>
 
+#include "app/openmp_wait.hpp"
+#include "core/doorbell.hpp"
 #include "core/threads.hpp"
 
 namespace {
@@ -102,21 +104,27 @@ std::vector<double> two_processes(std::size_t m, long steps) {
   return out;
 }
 
-// Nanoseconds for a cache line to go to the other thread and back.
+// Nanoseconds for a cache line to go to the other thread and back, each
+// side waiting as the engine's threads wait for each other (core/doorbell.hpp:
+// spinning, then sleeping if the other thread is not running).
 double round_trip_ns(long trips = 200000) {
   alignas(64) std::atomic<long> flag{0};
+  granular::Doorbell bell;
+  const auto wait_for = [&](long want) {
+    bell.wait_until([&] { return flag.load(std::memory_order_acquire) == want; });
+  };
   std::thread other([&] {
     for (long i = 0; i < trips; ++i) {
-      while (flag.load(std::memory_order_acquire) != 2 * i + 1) {
-      }
+      wait_for(2 * i + 1);
       flag.store(2 * i + 2, std::memory_order_release);
+      bell.ring();
     }
   });
   const auto t0 = Clock::now();
   for (long i = 0; i < trips; ++i) {
     flag.store(2 * i + 1, std::memory_order_release);
-    while (flag.load(std::memory_order_acquire) != 2 * i + 2) {
-    }
+    bell.ring();
+    wait_for(2 * i + 2);
   }
   other.join();
   return 1e9 * std::chrono::duration<double>(Clock::now() - t0).count() / static_cast<double>(trips);
@@ -131,6 +139,7 @@ double median(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  granular::spin_briefly_before_sleeping(argv);  // wait as the engine does (app/openmp_wait.hpp)
   CLI::App app{"two threads against two processes, on a loop shaped like the step"};
   std::size_t n = 8000;
   long steps = 20000;

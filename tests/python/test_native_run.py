@@ -187,7 +187,8 @@ def test_bench_memory_is_the_runs_own_and_grows_with_the_particles():
     for length in (28, 280):
         out = subprocess.run([str(BIN), "bench", str(ROOT / "scenes/drum/A.toml"), "--threads", "1",
                               "--rotations", "0.01", "--settle", "0", "--repeat", "1", "--json",
-                              "--set", f"drum.length={length}"], capture_output=True, text=True, check=True).stdout
+                              "--set", f"drum.length={length}"],
+                             capture_output=True, text=True, check=True, timeout=600).stdout
         row = json.loads(out)[0]
         peaks[row["particles"]] = row["peak_rss_bytes_per_particle"] * row["particles"]
     (n1, m1), (n2, m2) = sorted(peaks.items())
@@ -208,7 +209,7 @@ def test_bench_counts_list_builds_and_a_wider_skin_builds_less_often():
         out = subprocess.run([str(BIN), "bench", str(ROOT / "scenes/drum/A.toml"), "--threads", "1",
                               "--rotations", "0.1", "--settle", "0.2", "--repeat", "1", "--json",
                               "--set", "drum.length=32", "--set", f"neighbor.skin={skin}"],
-                             capture_output=True, text=True, check=True).stdout
+                             capture_output=True, text=True, check=True, timeout=600).stdout
         row = json.loads(out)[0]
         assert 0 < row["neighbor_builds"] <= row["steps"]
         rows.append({"key": f"skin-drum-native-rapaport-{skin:g}", "median": row["particle_steps_per_second"],
@@ -229,7 +230,8 @@ def test_bench_ceiling_runs_its_copies_at_once_and_sums_them():
     both ran."""
     out = subprocess.run([str(BIN), "bench", str(ROOT / "scenes/drum/A.toml"), "--threads", "1", "--ceiling", "2",
                           "--rotations", "0.05", "--settle", "0.05", "--repeat", "2", "--json",
-                          "--set", "drum.length=28"], capture_output=True, text=True, check=True).stdout
+                          "--set", "drum.length=28"],
+                         capture_output=True, text=True, check=True, timeout=600).stdout
     rows = {(r["threads"], r["copies"]): r for r in json.loads(out)}
     assert set(rows) == {(1, 1), (1, 2)}
     one, two = rows[(1, 1)], rows[(1, 2)]
@@ -370,3 +372,27 @@ def test_bench_scaling_pairs_the_sizes_round_by_round():
     assert sc["cost_max_over_min_per_round"] == pytest.approx([1.25, 1.25, 2.0])
     assert sc["cost_max_over_min_per_round_median"] == pytest.approx(1.25)
     assert sc["cost_max_over_min"] == pytest.approx(10.0 / 8.0)
+
+
+def test_the_program_has_libgomp_spin_briefly_unless_the_environment_chose():
+    """granular sets GOMP_SPINCOUNT=1000 for itself (native/src/app/openmp_wait.hpp):
+    with libgomp's default (300 000 spins) two 2-thread runs sharing two cores
+    wait out time slices. libgomp reports the count it took when
+    OMP_DISPLAY_ENV=verbose; the last report is the program that ran. A count or
+    a wait policy the user set stays as set."""
+    import re
+    env = {k: v for k, v in os.environ.items() if k not in ("GOMP_SPINCOUNT", "OMP_WAIT_POLICY")}
+
+    def spin(**extra):
+        r = subprocess.run([str(BIN), "info", str(ROOT / "scenes/box/f3.0_big.toml"), "--json"],
+                           env={**env, "OMP_DISPLAY_ENV": "verbose", **extra}, capture_output=True, text=True,
+                           timeout=60)
+        assert r.returncode == 0, r.stderr
+        json.loads(r.stdout)  # the program itself ran and answered
+        counts = re.findall(r"GOMP_SPINCOUNT = '(\d+)'", r.stderr)
+        assert counts, r.stderr
+        return counts[-1]
+
+    assert spin() == "1000"
+    assert spin(GOMP_SPINCOUNT="7") == "7"
+    assert spin(OMP_WAIT_POLICY="active") == "30000000000"

@@ -27,6 +27,7 @@
 #include <optional>
 
 #include "app/bench_children.hpp"
+#include "app/openmp_wait.hpp"
 #include "engine/box.hpp"
 #include "engine/drum.hpp"
 #include "engine/run_control.hpp"
@@ -491,6 +492,7 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
 }  // namespace
 
 int main(int argc, char** argv) {
+  spin_briefly_before_sleeping(argv);  // may start the program again (app/openmp_wait.hpp)
   CLI::App app{"granular: discrete-element engine for the rotating drum (Rapaport 2002) and the shaken box "
                "(Poeschel and Herrmann 1995)"};
   app.require_subcommand(1);

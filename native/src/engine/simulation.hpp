@@ -18,6 +18,7 @@
 
 #include "contact/pair_batch.hpp"
 #include "core/box.hpp"
+#include "core/doorbell.hpp"
 #include "core/particles.hpp"
 #include "core/threads.hpp"
 #include "engine/timers.hpp"
@@ -117,6 +118,7 @@ class Simulation {
         for (; k < n; ++k) {
           const long seq = seq0 + k + 1;
           dn.seq.store(seq, std::memory_order_release);
+          dn.bell.ring();
 #pragma omp master
           ts.first = PhaseTimers::Clock::now();
           Gate g{seq};
@@ -320,6 +322,7 @@ class Simulation {
   struct alignas(64) Done {
     std::atomic<long> seq{0};
     std::atomic<long> met{0};  // the last step whose pairs the thread finished (meet)
+    mutable Doorbell bell;     // rung after seq or met is published; the waiters sleep on it
     long tails_taken = 0;      // tail tasks of other blocks this thread ran (run_tails)
     typename Integrator::DriftStats stats;
     std::vector<std::uint32_t> fast;  // the buffer that stats.fast names the fast particles into
@@ -328,6 +331,7 @@ class Simulation {
     Done(const Done& o)
         : seq(o.seq.load(std::memory_order_relaxed)),
           met(o.met.load(std::memory_order_relaxed)),
+          bell(o.bell),
           tails_taken(o.tails_taken),
           stats(o.stats),
           fast(o.fast) {}
@@ -376,14 +380,16 @@ class Simulation {
     });
   }
 
-  // Looks whether every thread has published; with wait, spins until they
-  // have. Returns whether the verdict is known.
+  // Looks whether every thread has published; with wait, waits until they
+  // have (spinning, then sleeping: core/doorbell.hpp). Returns whether the verdict is known.
   bool poll(Gate& g, bool wait) const {
-    for (const Done& d : done_)
-      while (d.seq.load(std::memory_order_acquire) != g.seq) {
+    for (const Done& d : done_) {
+      const auto published = [&] { return d.seq.load(std::memory_order_acquire) == g.seq; };
+      if (!published()) {
         if (!wait) return false;
-        spin_pause();
+        d.bell.wait_until(published);
       }
+    }
     typename Integrator::DriftStats all;
     for (const Done& d : done_) combine_into(all, d.stats);
     g.all = all;
@@ -398,14 +404,10 @@ class Simulation {
   // from the core that had it: box 3 Hz, 2 threads, docs/speed_accuracy.md).
   // The numbers only grow, so the same flags serve every step.
   void meet(int t, long seq) {
-    done_[static_cast<std::size_t>(t)].met.store(seq, std::memory_order_release);
-    for (const Done& d : done_)
-      while (d.met.load(std::memory_order_acquire) < seq) spin_pause();
-  }
-  static void spin_pause() {
-#if defined(__x86_64__) || defined(__i386__)
-    __builtin_ia32_pause();
-#endif
+    Done& mine = done_[static_cast<std::size_t>(t)];
+    mine.met.store(seq, std::memory_order_release);
+    mine.bell.ring();
+    for (const Done& d : done_) d.bell.wait_until([&] { return d.met.load(std::memory_order_acquire) >= seq; });
   }
 
   // Where a thread's pair loop puts forces and torques: the store for the
@@ -653,7 +655,7 @@ class Simulation {
   }
   void stall() const {
     const auto until = PhaseTimers::Clock::now() + stall_for;
-    while (PhaseTimers::Clock::now() < until) spin_pause();
+    while (PhaseTimers::Clock::now() < until) Doorbell::pause();
   }
 
   // Zeroes the chunks of thread t's ghost buffer that its rows write.
