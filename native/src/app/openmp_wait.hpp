@@ -5,10 +5,12 @@
 // region, and a worker between regions. On a machine running more threads
 // than it has cores (two runs at once, a CI running tests side by side) the
 // thread being waited for can be queued behind the spinning one on the same
-// core, and every wait then lasts a time slice. Two 2-thread runs of the box
-// at 3 Hz (1135 particles, 3 s) at once took 1.4-57 s each over five tries;
-// with GOMP_SPINCOUNT=1000, 1.3-2.0 s. A run alone on its cores measured the
-// same either way, within the host's noise (docs/speed_accuracy.md, stop 39).
+// core, and every wait then lasts a time slice. Two 2-thread runs at once
+// (with the step's own waits as in core/doorbell.hpp) of the box at 3 Hz
+// (1135 particles, 3 s) took 0.9-57 s each, of a 528-particle drum 1.0-41 s;
+// with GOMP_SPINCOUNT=1000, 2.5-2.6 s and 2.3-2.4 s in 10 tries each. Alone
+// on the cores, a run measured the same either way, within the host's noise
+// (docs/speed_accuracy.md, stop 39).
 //
 // libgomp reads its environment once, when it loads, before main runs; and a
 // function in the executable's .preinit_array, which runs earlier, cannot yet

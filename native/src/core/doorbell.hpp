@@ -7,14 +7,18 @@
 // (app/openmp_wait.hpp: GOMP_SPINCOUNT=1000, some 30 microseconds here), then
 // sleeps on a futex, giving its core to whatever else the machine has to run.
 // Measured on this 2-core host (docs/speed_accuracy.md, stop 39), two 2-thread
-// runs of a 528-particle drum at once:
-//   - spinning only: 27-65 s each, against 0.6 s alone, since the thread being
-//     waited for may be queued behind the spinner on the same core, and each
-//     wait then lasts a time slice;
-//   - yielding the core after 256 looks: 1.2-2.2 s, but with two unrelated
-//     busy processes beside it, yielding hands the slice to them, and a
-//     two-thread round trip took longer than 120 s against 3.9 s spinning;
-//   - sleeping (this): see the docs for both cases.
+// runs of a 528-particle drum at once (0.6 s each alone):
+//   - spinning only: 27-65 s each, since the thread being waited for may be
+//     queued behind the spinner on the same core, and each wait then lasts a
+//     time slice;
+//   - yielding the core after 256 looks: 1.2-2.2 s; but beside two unrelated
+//     busy processes a yield hands the slice to them, and thread_probe's
+//     200 000 round trips took over 120 s;
+//   - sleeping after 1000 looks (this): 2.3-2.4 s in 10 tries, and the round
+//     trips beside the busy processes 1.7 s;
+//   - sleeping after 200 looks: 1.7-2.1 s, but alone on the cores two threads
+//     ran 7 % (drum) and 11 % (box) slower than with 1000, in 4 of 4 paired
+//     rounds: the meeting points often wait longer than 200 looks.
 // A sleeper is woken by the next ring; publishers pay a fence and a load when
 // no one sleeps.
 #pragma once
