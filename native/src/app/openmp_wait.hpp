@@ -7,8 +7,9 @@
 // thread being waited for can be queued behind the spinning one on the same
 // core, and every wait then lasts a time slice. Two 2-thread runs at once
 // (with the step's own waits as in core/doorbell.hpp) of the box at 3 Hz
-// (1135 particles, 3 s) took 0.9-57 s each, of a 528-particle drum 1.0-41 s;
-// with GOMP_SPINCOUNT=1000, 2.5-2.6 s and 2.3-2.4 s in 10 tries each. Alone
+// (1135 particles, 3 s) took 0.9-57 s each, of a 528-particle drum 1.0-41 s
+// (3 tries each);
+// with GOMP_SPINCOUNT=1000, 2.3-2.8 s and 2.3-2.6 s in 7 tries each. Alone
 // on the cores, a run measured the same either way, within the host's noise
 // (docs/speed_accuracy.md, stop 39).
 //

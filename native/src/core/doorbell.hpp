@@ -14,7 +14,7 @@
 //   - yielding the core after 256 looks: 1.2-2.2 s; but beside two unrelated
 //     busy processes a yield hands the slice to them, and thread_probe's
 //     200 000 round trips took over 120 s;
-//   - sleeping after 1000 looks (this): 2.3-2.4 s in 10 tries, and the round
+//   - sleeping after 1000 looks (this): 2.3-2.6 s in 7 tries, and the round
 //     trips beside the busy processes 1.7 s;
 //   - sleeping after 200 looks: 1.7-2.1 s, but alone on the cores two threads
 //     ran 7 % (drum) and 11 % (box) slower than with 1000, in 4 of 4 paired
