@@ -1,6 +1,8 @@
 // Results are bitwise identical for a given thread count and seed.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include "engine/drum.hpp"
 #include "helpers.hpp"
 
@@ -73,4 +75,12 @@ TEST(Determinism, TailTasksRunByEitherThreadGiveTheSameBits) {
     EXPECT_EQ(0, std::memcmp(a.data(), free_run.data(), a.size() * sizeof(double)))
         << "thread " << stalled << " stalled: " << taken << " tail tasks taken (" << taken_free << " without the stall)";
   }
+}
+
+// The test programs wait as granular does (tests/native/main.cpp): libgomp
+// read a spin count or a wait policy from the environment before main.
+TEST(Harness, OpenMpWaitsAreChosenBeforeTheTestsRun) {
+  const char* spin = std::getenv("GOMP_SPINCOUNT");
+  const char* policy = std::getenv("OMP_WAIT_POLICY");
+  EXPECT_TRUE(spin != nullptr || policy != nullptr) << "main.cpp did not set GOMP_SPINCOUNT";
 }
