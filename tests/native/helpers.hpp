@@ -7,6 +7,7 @@
 
 #include "boundary/cylinder_wall.hpp"
 #include "boundary/end_caps.hpp"
+#include "boundary/periodic_axes.hpp"
 #include "contact/rapaport.hpp"
 #include "engine/simulation.hpp"
 #include "integrate/leapfrog.hpp"
@@ -14,8 +15,10 @@
 namespace granular::test {
 
 using Law3 = RapaportLaw<3>;
-using FreeSim = Simulation<3, Law3, Leapfrog<3>>;
-using CylSim = Simulation<3, Law3, Leapfrog<3>, CylinderWall>;
+// Periodic-capable: the tests choose the axes (Box::periodic).
+using FreeSim = Simulation<3, Law3, Leapfrog<3>, PeriodicAxes>;
+using OpenSim = Simulation<3, Law3, Leapfrog<3>>;
+using CylSim = Simulation<3, Law3, Leapfrog<3>, CylinderWall, PeriodicAxes>;
 using CapSim = Simulation<3, Law3, Leapfrog<3>, CylinderWall, EndCaps>;
 
 // Mass d^3 and I = kappa m d^2 / 2 with kappa = 0.2 (Rapaport 2002, Sec. III).

@@ -196,7 +196,7 @@ TEST(BatchKernel, SpeciesPairSelectsCoefficients) {
 // The batched pair loop against an independent O(N^2) sum of pair_force, in a
 // periodic box with contacts across the boundary.
 TEST(BatchKernel, PairLoopMatchesDirectSum) {
-  using Sim = Simulation<3, LinearLaw<3>, Leapfrog<3>>;
+  using Sim = Simulation<3, LinearLaw<3>, Leapfrog<3>, PeriodicAxes>;
   static_assert(HasPairBatch<LinearLaw<3>, 3>::value, "the linear law has a batch kernel");
   for (int threads : {1, 2}) {
     omp_set_num_threads(threads);

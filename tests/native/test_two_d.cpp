@@ -14,8 +14,8 @@ using namespace granular;
 
 namespace {
 
-using Sim2 = Simulation<2, RapaportLaw<2>, Leapfrog<2>>;
-using Sim3 = Simulation<3, RapaportLaw<3>, Leapfrog<3>>;
+using Sim2 = Simulation<2, RapaportLaw<2>, Leapfrog<2>, PeriodicAxes>;
+using Sim3 = Simulation<3, RapaportLaw<3>, Leapfrog<3>, PeriodicAxes>;
 
 template <class Sim>
 double restitution(double dt) {

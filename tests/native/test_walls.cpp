@@ -1,6 +1,12 @@
 // The drum's curved wall and end caps (Rapaport 2002, Sec. III, Eq. (5)).
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+#include <utility>
+#include <variant>
+
+#include "engine/box.hpp"
+#include "engine/drum.hpp"
 #include "helpers.hpp"
 
 using namespace granular;
@@ -178,4 +184,37 @@ TEST(WallForce, EndCapSingleContact) {
     const Eigen::Vector3d f = fn * n - fsm * vs.normalized();
     EXPECT_LT((sim.p.f[0] - f).norm(), 1e-12 * f.norm()) << "side " << side;
   }
+}
+
+namespace {
+template <class Variant, std::size_t... I>
+constexpr bool none_periodic(std::index_sequence<I...>) {
+  return (!std::variant_alternative_t<I, Variant>::kPeriodic && ...);
+}
+}  // namespace
+
+// Periodic ends are a boundary (boundary/periodic_axes.hpp): only a
+// simulation type that has it wraps. An open box's minimum image and wrap do
+// nothing, a periodic box's do, and an open box refuses a periodic axis
+// rather than silently leaving it unwrapped.
+TEST(PeriodicAxes, OnlyTheBoundaryMakesTheBoxWrap) {
+  Box<3, true> periodic;
+  Box<3, false> open;
+  for (auto* lo : {&periodic.lo, &open.lo}) *lo = Eigen::Vector3d(-5, -10, -5);
+  for (auto* hi : {&periodic.hi, &open.hi}) *hi = Eigen::Vector3d(5, 10, 5);
+  periodic.periodic = {false, true, false};
+  periodic.finalize();
+  open.finalize();
+  const Eigen::Vector3d dr(1.0, 15.0, -2.0), x(0.5, 12.0, 0.0);
+  EXPECT_EQ(periodic.min_image(dr), Eigen::Vector3d(1.0, -5.0, -2.0));
+  EXPECT_EQ(periodic.wrapped(x), Eigen::Vector3d(0.5, -8.0, 0.0));
+  EXPECT_EQ(open.min_image(dr), dr);
+  EXPECT_EQ(open.wrapped(x), x);
+  open.periodic = {false, true, false};
+  EXPECT_THROW(open.finalize(), std::logic_error);
+  // The scenes' types: periodic drums wrap; capped drums and every box are open.
+  static_assert(std::variant_alternative_t<0, DrumSim>::kPeriodic && DrumPeriodic::kPeriodic);
+  static_assert(!DrumCapped::kPeriodic && !CapSim::kPeriodic && !OpenSim::kPeriodic);
+  static_assert(FreeSim::kPeriodic && CylSim::kPeriodic);
+  static_assert(none_periodic<BoxSim>(std::make_index_sequence<std::variant_size_v<BoxSim>>{}));
 }

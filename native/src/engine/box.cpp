@@ -16,7 +16,7 @@ namespace granular {
 namespace {
 
 template <class Sim>
-constexpr bool kSmooth = std::tuple_size_v<decltype(Sim::walls)> > 0;  // FlatBoxWalls, no wall particles
+constexpr bool kSmooth = Sim::template kHasWall<FlatBoxWalls>;  // no wall particles
 
 template <class Sim>
 void configure(Sim& sim, const BoxScene& s) {

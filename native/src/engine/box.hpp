@@ -38,7 +38,7 @@ using BoxSim = std::variant<BoxSimOf<false, BoxGear>, BoxSimOf<false, BoxVerlet>
 // The shaker's motion y_box(t) of a box simulation, wherever its type keeps it.
 template <class Sim>
 const ShakerMotion<2>& shaker_of(const Sim& sim) {
-  if constexpr (std::tuple_size_v<decltype(sim.walls)> > 0)
+  if constexpr (Sim::template kHasWall<FlatBoxWalls>)
     return std::get<FlatBoxWalls>(sim.walls).shaker;
   else
     return sim.integrator.motion;

@@ -62,7 +62,7 @@ void configure_common(Sim& sim, const DrumScene& s) {
   cyl.d_wall = d_wall;
   const bool paper = s.wall_lever == "paper";
   cyl.lever = WallLever{paper ? 1.0 : 0.0, paper ? 0.0 : 1.0};
-  if constexpr (std::tuple_size_v<decltype(sim.walls)> == 2) {
+  if constexpr (Sim::template kHasWall<EndCaps>) {
     EndCaps& caps = std::get<EndCaps>(sim.walls);
     caps.length = s.length - 2.0 * inset;
     caps.omega = s.omega;

@@ -9,6 +9,7 @@
 
 #include "boundary/cylinder_wall.hpp"
 #include "boundary/end_caps.hpp"
+#include "boundary/periodic_axes.hpp"
 #include "contact/linear.hpp"
 #include "contact/rapaport.hpp"
 #include "contact/viscel.hpp"
@@ -21,7 +22,7 @@
 namespace granular {
 
 template <class Law>
-using DrumPeriodicT = Simulation<3, Law, Leapfrog<3>, CylinderWall>;
+using DrumPeriodicT = Simulation<3, Law, Leapfrog<3>, CylinderWall, PeriodicAxes>;
 template <class Law>
 using DrumCappedT = Simulation<3, Law, Leapfrog<3>, CylinderWall, EndCaps>;
 using DrumPeriodic = DrumPeriodicT<RapaportLaw<3>>;

@@ -13,9 +13,11 @@
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
+#include "boundary/periodic_axes.hpp"
 #include "contact/pair_batch.hpp"
 #include "core/box.hpp"
 #include "core/doorbell.hpp"
@@ -39,8 +41,13 @@ class Simulation {
   using A = Ang<Dim>;
   static constexpr int kDim = Dim;
 
+  // A periodic box only with the PeriodicAxes boundary (core/box.hpp).
+  static constexpr bool kPeriodic = (false || ... || MakesPeriodic<Walls>::value);
+  // Whether W is among the walls.
+  template <class W>
+  static constexpr bool kHasWall = (false || ... || std::is_same_v<W, Walls>);
   ParticleStore<Dim> p;
-  Box<Dim> box;
+  Box<Dim, kPeriodic> box;
   Law law;
   Integrator integrator;
   std::tuple<Walls...> walls;

@@ -62,12 +62,14 @@ struct Gear5 {
           q3(p.aux_a[2]), q4(p.aux_a[3]), q5(p.aux_a[4]) {}
   };
 
-  DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref, std::size_t lo,
+  template <bool P>
+  DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next, const DriftStats& seed = DriftStats()) const {
     return stages<false, true>(p, box, x_ref, lo, hi, t_next, seed);
   }
 
-  void second_half(ParticleStore<Dim>& p, const Box<Dim>& box, std::size_t lo, std::size_t hi) const {
+  template <bool P>
+  void second_half(ParticleStore<Dim>& p, const Box<Dim, P>& box, std::size_t lo, std::size_t hi) const {
     stages<true, false>(p, box, p.x, lo, hi, 0.0, DriftStats());
   }
 
@@ -75,7 +77,8 @@ struct Gear5 {
   // each particle gets the same operations in the same order as from
   // second_half() then first_half() (the same bits), with its fifteen columns
   // read and written once instead of twice.
-  DriftStats second_then_first(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref,
+  template <bool P>
+  DriftStats second_then_first(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref,
                                std::size_t lo, std::size_t hi, double t_next,
                                const DriftStats& seed = DriftStats()) const {
     return stages<true, true>(p, box, x_ref, lo, hi, t_next, seed);
@@ -97,7 +100,8 @@ struct Gear5 {
   };
 
   // The predictor; returns the position's step.
-  GRANULAR_INLINE V predict(State& s, const Box<Dim>& box) const {
+  template <bool P>
+  GRANULAR_INLINE V predict(State& s, const Box<Dim, P>& box) const {
     const V r1 = dt * s.v;
     const V step = r1 + s.r2 + s.r3 + s.r4 + s.r5;
     s.x += step;
@@ -116,7 +120,8 @@ struct Gear5 {
   }
 
   // The corrector, from the forces in the store.
-  GRANULAR_INLINE void correct(State& s, const ParticleStore<Dim>& p, std::size_t i, const Box<Dim>& box) const {
+  template <bool P>
+  GRANULAR_INLINE void correct(State& s, const ParticleStore<Dim>& p, std::size_t i, const Box<Dim, P>& box) const {
     const double h2 = 0.5 * dt * dt;
     const V d = h2 * (p.f[i] * p.inv_m[i] + gravity) - s.r2;
     s.x += c0 * d;
@@ -138,8 +143,8 @@ struct Gear5 {
   // The corrector and/or the predictor on particles [lo, hi). x_ref, t_next
   // and the statistics belong to the predictor; the corrector alone
   // (second_half) passes placeholders it never reads.
-  template <bool Correct, bool Predict>
-  DriftStats stages(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref, std::size_t lo,
+  template <bool Correct, bool Predict, bool P>
+  DriftStats stages(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref, std::size_t lo,
                     std::size_t hi, double t_next, const DriftStats& seed) const {
     // A local, returned as a copy (drift_stats.hpp: kept in registers).
     DriftStats st = seed;

@@ -34,13 +34,15 @@ struct Leapfrog {
 
   // Stage 1 on particles [lo, hi); t_next = time at the end of the step. The
   // statistics start from seed (where to name fast particles: drift_stats.hpp).
-  DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref, std::size_t lo,
+  template <bool P>
+  DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next, const DriftStats& seed = DriftStats()) const {
     return kicks_then_drift<1>(p, box, x_ref, lo, hi, t_next, seed);
   }
 
   // Stage 2 on particles [lo, hi).
-  void second_half(ParticleStore<Dim>& p, const Box<Dim>&, std::size_t lo, std::size_t hi) const {
+  template <bool P>
+  void second_half(ParticleStore<Dim>& p, const Box<Dim, P>&, std::size_t lo, std::size_t hi) const {
     for (std::size_t i = lo; i < hi; ++i) {
       if constexpr (kHasMotion<Motion>)
         if (p.species[i] == kWallSpecies) continue;
@@ -56,7 +58,8 @@ struct Leapfrog {
   // the same forces, so each particle gets the same operations in the same
   // order as from second_half() then first_half() (the same bits), with its
   // columns read and written once instead of twice.
-  DriftStats second_then_first(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref,
+  template <bool P>
+  DriftStats second_then_first(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref,
                                std::size_t lo, std::size_t hi, double t_next,
                                const DriftStats& seed = DriftStats()) const {
     return kicks_then_drift<2>(p, box, x_ref, lo, hi, t_next, seed);
@@ -73,8 +76,8 @@ struct Leapfrog {
   }
 
   // Kicks half kicks, then the drift, on particles [lo, hi).
-  template <int Kicks>
-  DriftStats kicks_then_drift(ParticleStore<Dim>& p, const Box<Dim>& box, const std::vector<V>& x_ref,
+  template <int Kicks, bool P>
+  DriftStats kicks_then_drift(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref,
                               std::size_t lo, std::size_t hi, double t_next, const DriftStats& seed) const {
     // A local, returned as a copy (drift_stats.hpp: kept in registers).
     DriftStats st = seed;

@@ -32,7 +32,8 @@ class CellList {
   // [lo, hi): a parallel counting sort (per-thread histograms, one scan over
   // cells and threads, per-thread scatter). Particles keep their index order
   // within a cell, so the result is the same for any thread count.
-  void build_in_region(const Box<Dim>& box, const std::vector<V>& x, const std::vector<double>& d, double d_large,
+  template <bool P>
+  void build_in_region(const Box<Dim, P>& box, const std::vector<V>& x, const std::vector<double>& d, double d_large,
                        double min_cell, int t, int nt, std::size_t lo, std::size_t hi) {
     const std::size_t n = x.size();
 #pragma omp single
@@ -212,7 +213,8 @@ class CellList {
   }
 
  private:
-  int cell_index(const Box<Dim>& box, const V& p) const {
+  template <bool P>
+  int cell_index(const Box<Dim, P>& box, const V& p) const {
     int idx = 0;
     for (int k = 0; k < Dim; ++k) {
       int q = static_cast<int>(std::floor((p[k] - box.lo[k]) / width_[k]));
