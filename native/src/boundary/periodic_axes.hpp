@@ -6,14 +6,12 @@
 // (core/box.hpp). It exerts no force.
 #pragma once
 #include <cstddef>
-#include <type_traits>
 
 #include "core/particles.hpp"
 
 namespace granular {
 
 struct PeriodicAxes {
-  static constexpr bool kPeriodic = true;
   // Cost per particle in listed pairs (neighbor/neighbor_list.hpp): none
   // here; the wrap is part of the integrator's drift.
   static constexpr unsigned kWeight = 0;
@@ -21,11 +19,5 @@ struct PeriodicAxes {
   template <class Law, int Dim>
   void apply(ParticleStore<Dim>&, const Law&, std::size_t, std::size_t, double) const {}
 };
-
-// Whether a boundary makes the box periodic.
-template <class W, class = void>
-struct MakesPeriodic : std::false_type {};
-template <class W>
-struct MakesPeriodic<W, std::void_t<decltype(W::kPeriodic)>> : std::bool_constant<W::kPeriodic> {};
 
 }  // namespace granular

@@ -21,7 +21,6 @@ namespace granular {
 template <int Dim, bool Periodic = false>
 struct Box {
   using V = Vec<Dim>;
-  static constexpr bool kPeriodic = Periodic;
   V lo = V::Zero();
   V hi = V::Zero();
   std::array<bool, Dim> periodic{};
@@ -46,9 +45,7 @@ struct Box {
       return x;
     }
   }
-  void wrap(V& x) const {
-    if constexpr (Periodic) x = wrapped(x);
-  }
+  void wrap(V& x) const { x = wrapped(x); }
 
   // Call after setting lo, hi, periodic. An open box with a periodic axis is
   // a simulation type that does not match its scene: a programming error.

@@ -41,11 +41,11 @@ class Simulation {
   using A = Ang<Dim>;
   static constexpr int kDim = Dim;
 
-  // A periodic box only with the PeriodicAxes boundary (core/box.hpp).
-  static constexpr bool kPeriodic = (false || ... || MakesPeriodic<Walls>::value);
   // Whether W is among the walls.
   template <class W>
   static constexpr bool kHasWall = (false || ... || std::is_same_v<W, Walls>);
+  // A periodic box only with the PeriodicAxes boundary (core/box.hpp).
+  static constexpr bool kPeriodic = kHasWall<PeriodicAxes>;
   ParticleStore<Dim> p;
   Box<Dim, kPeriodic> box;
   Law law;
