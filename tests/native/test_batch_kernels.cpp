@@ -2,6 +2,9 @@
 // - a law's batch kernel (contact/pair_batch.hpp) against its pair_force,
 //   contact by contact, over random contacts that include capped, uncapped
 //   and zero-sliding ones;
+// - a law's wall batch kernel (contact/wall_batch.hpp) against its
+//   wall_force, and the curved wall's batched contacts against its contacts
+//   one by one;
 // - the batched pair loop (engine/simulation.hpp) against an O(N^2) sum of
 //   pair_force over every pair in range, periodic images included;
 // - the neighbour build's vector pair tests (neighbor/range_scan.hpp: AVX-512,
@@ -16,11 +19,13 @@
 #include <random>
 #include <vector>
 
+#include "boundary/cylinder_wall.hpp"
 #include "contact/linear.hpp"
 #include "contact/pair_batch.hpp"
 #include "contact/poeschel_herrmann.hpp"
 #include "contact/rapaport.hpp"
 #include "contact/viscel.hpp"
+#include "contact/wall_batch.hpp"
 #include "engine/simulation.hpp"
 #include "integrate/leapfrog.hpp"
 #include "neighbor/range_scan.hpp"
@@ -41,6 +46,7 @@ LinearLaw<Dim> linear_law() {
       const int k = ci + cj;
       law.pair[ci * 2 + cj] = {2e3 * (1 + k), 40.0 + k, 0.5, 0.3 + 0.1 * k};
     }
+  for (int ci = 0; ci < 2; ++ci) law.wall[ci] = {3e3 * (1 + ci), 30.0 + ci, 0.6, 0.4 + 0.1 * ci};
   return law;
 }
 template <int Dim>
@@ -191,6 +197,157 @@ TEST(BatchKernel, SpeciesPairSelectsCoefficients) {
   law.pair_force_batch(b);
   EXPECT_NEAR(b.f[0][0], law.pair[0].kn * 0.1, 1e-9 * law.pair[0].kn);
   EXPECT_NEAR(b.f[0][1], law.pair[3].kn * 0.1, 1e-9 * law.pair[3].kn);
+}
+
+// Random wall contacts through both paths, as check_batch_against_scalar
+// does for pairs: overlaps from 0 to 10 %, both species, sliding speeds
+// over four decades, both of the curved wall's lever readings, and one
+// contact in five without sliding. d_wall: the wall's diameter in the law's
+// range (Rapaport's d_w = 1; the linear law's wall has none). terms(rp, di,
+// ci): the size of the terms the normal force is the difference of (Eq. (1):
+// 48 s^12 / r and 24 s^6 / r; the linear law's k_n R_i and k_n r). The
+// kernel forms r = |r'_iw| as a sum of lanes where the scalar form has
+// Eigen's norm; a last-bit change in r moves that difference by a few ulps
+// of its terms, which for small overlaps is up to a thousand times 1e-12 of
+// the net force. So a lane may differ by 1e-12 of the net force and
+// torque plus 1e-14 (some 50 ulps) of the terms.
+template <class Law, class Terms>
+Contact check_wall_batch_against_scalar(const Law& law, double d_wall, Terms terms, unsigned seed) {
+  using V = Vec<3>;
+  std::mt19937_64 gen(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  WallBatch<3> b;
+  struct Case {
+    typename Law::WallResult r;
+    int ci;
+  };
+  std::vector<Case> expect;
+  Contact seen;
+  for (int round = 0; round < 40; ++round) {
+    b.n = 0;
+    expect.clear();
+    for (int q = 0; q < WallBatch<3>::kSize - (round % 7); ++q) {
+      const int ci = static_cast<int>(gen() % 2);
+      const double di = ci ? 1.3 : 1.0, inv_mi = 1.0 / (di * di * di), d_iw = 0.5 * (di + d_wall);
+      V dir = random_vec<3>(gen, 1.0);
+      dir.normalize();
+      const double s = u(gen);
+      V rp = Law::range(di, d_wall) * (1.0 - 0.1 * s * s * s) * dir;
+      V v = random_vec<3>(gen, std::pow(10.0, -3.0 + 4.0 * u(gen)));
+      Ang<3> w = random_ang<3>(gen, 0.5);
+      if (q % 5 == 0) {  // sliding velocity exactly zero: along an axis, no spin
+        rp = V(rp.norm(), 0.0, 0.0);
+        v = V(0.7 * u(gen) - 0.35, 0.0, 0.0);
+        w.setZero();
+      }
+      const V lever = (q % 2 ? 1.0 : di / (di + d_wall)) * rp;  // the "paper" and "pair" readings
+      b.i[q] = static_cast<std::uint32_t>(q);
+      b.ci[q] = ci;
+      for (int a = 0; a < 3; ++a) {
+        b.rp[a][q] = rp[a];
+        b.v[a][q] = v[a];
+        b.w[a][q] = w[a];
+        b.lever[a][q] = lever[a];
+      }
+      b.di[q] = di;
+      b.d_iw[q] = d_iw;
+      b.inv_mi[q] = inv_mi;
+      expect.push_back({law.wall_force(rp, di, d_iw, v, w, lever, ci, inv_mi), ci});
+      b.n = q + 1;
+    }
+    law.wall_force_batch(b);
+    for (int q = 0; q < b.n; ++q) {
+      const auto& e = expect[static_cast<std::size_t>(q)].r;
+      const Vec<3> rp(b.rp[0][q], b.rp[1][q], b.rp[2][q]);
+      const double scale =
+          e.f.norm() + e.t.norm() + 1e-2 * terms(rp, b.di[q], expect[static_cast<std::size_t>(q)].ci) + 1e-300;
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_NEAR(b.f[a][q], e.f[a], kRel * scale) << "contact " << q << " axis " << a;
+        EXPECT_NEAR(b.t[a][q], e.t[a], kRel * scale) << "contact " << q << " axis " << a;
+      }
+      const V n = V(b.rp[0][q], b.rp[1][q], b.rp[2][q]).normalized();
+      const double fn = e.f.dot(n);
+      const double fs = (e.f - fn * n).norm();
+      const double cap = law.wall_coulomb_mu(expect[static_cast<std::size_t>(q)].ci) * std::abs(fn);
+      if (fs == 0.0)
+        ++seen.still;
+      else if (std::abs(fs - cap) <= 1e-9 * cap)
+        ++seen.capped;
+      else
+        ++seen.uncapped;
+    }
+  }
+  return seen;
+}
+
+TEST(BatchKernel, RapaportWallMatchesWallForce) {
+  const auto terms = [](const Vec<3>& rp, double di, int) {
+    const double r = rp.norm(), s6 = std::pow(0.5 * (di + 1.0) / r, 6);
+    return 48.0 * s6 * s6 / r;
+  };
+  expect_every_branch(check_wall_batch_against_scalar(rapaport_law<3>(), 1.0, terms, 21));
+}
+
+TEST(BatchKernel, LinearWallMatchesWallForce) {
+  const auto law = linear_law<3>();
+  const auto terms = [&](const Vec<3>&, double di, int ci) { return law.wall[ci].kn * 0.5 * di; };
+  expect_every_branch(check_wall_batch_against_scalar(law, 0.0, terms, 22));
+}
+
+// A law as it is, but without its wall batch kernel: the curved wall then
+// takes its contacts one by one.
+template <class Law>
+struct WithoutWallBatch : Law {
+  explicit WithoutWallBatch(const Law& law) : Law(law) {}
+  void wall_force_batch(WallBatch<3>&) const = delete;
+};
+
+// The curved wall's batched contacts (the geometry in lanes, then the law's
+// kernel) against its contacts one by one, over a block of a store with more
+// contacts than a batch holds and more particles than a selection block;
+// both lever readings, both laws. Particles outside the block are untouched.
+template <class Law>
+void check_curved_wall_batches(const Law& law, double d_wall) {
+  static_assert(HasWallBatch<Law, 3>::value, "the law has a wall batch kernel");
+  static_assert(!HasWallBatch<WithoutWallBatch<Law>, 3>::value, "the wrapper hides it");
+  std::mt19937_64 gen(31);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  ParticleStore<3> p;
+  for (int i = 0; i < 900; ++i) {
+    const double d = i % 3 ? 1.0 : 1.3, m = d * d * d;
+    const double phi = 2.0 * M_PI * u(gen), r = 8.1 - 0.5 * d - 3.0 * std::pow(u(gen), 3);  // some reach the wall
+    const Eigen::Vector3d x(r * std::cos(phi), 40.0 * u(gen), r * std::sin(phi));
+    p.add(x, random_vec<3>(gen, 0.5), random_ang<3>(gen, 0.5), d, m, 0.1 * m * d * d, i % 3 ? 0 : 1);
+  }
+  const std::size_t lo = 37, hi = 850;
+  for (const auto& [paper, pair] : {std::pair{1.0, 0.0}, std::pair{0.0, 1.0}}) {
+    CylinderWall wall;
+    wall.diameter = 16.0;
+    wall.omega = 0.7;
+    wall.d_wall = d_wall;
+    wall.lever = {paper, pair};
+    ParticleStore<3> batched = p, single = p;
+    wall.apply(batched, law, lo, hi, 0.0);
+    wall.apply(single, WithoutWallBatch<Law>(law), lo, hi, 0.0);
+    std::size_t touched = 0;
+    double fscale = 0.0;
+    for (std::size_t i = 0; i < p.size(); ++i) fscale = std::max(fscale, single.f[i].norm() + single.tq[i].norm());
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      EXPECT_LE((batched.f[i] - single.f[i]).norm(), kRel * fscale) << "particle " << i;
+      EXPECT_LE((batched.tq[i] - single.tq[i]).norm(), kRel * fscale) << "particle " << i;
+      if (i < lo || i >= hi) {
+        EXPECT_EQ(batched.f[i].squaredNorm() + batched.tq[i].squaredNorm(), 0.0) << i;
+      }
+      touched += single.f[i].squaredNorm() > 0.0;
+    }
+    EXPECT_GT(touched, 3u * WallBatch<3>::kSize);  // several batches, and contacts in every selection block
+    EXPECT_LT(touched, hi - lo);                    // and particles out of reach
+  }
+}
+
+TEST(BatchKernel, CurvedWallBatchesMatchOneByOne) {
+  check_curved_wall_batches(rapaport_law<3>(), 1.0);
+  check_curved_wall_batches(linear_law<3>(), 0.0);
 }
 
 // The batched pair loop against an independent O(N^2) sum of pair_force, in a

@@ -6,6 +6,7 @@
 // another's). A kernel that stays scalar still gives the right forces, only
 // slower (the drum's pair loop by half on an AVX2 machine), so no force test
 // would notice. Compiled by that test only, not part of a target.
+#include "boundary/cylinder_wall.hpp"
 #include "contact/linear.hpp"
 #include "contact/rapaport.hpp"
 
@@ -18,7 +19,13 @@ template void LinearLaw<3>::pair_force_batch(PairBatch<3>&) const;
 template void RapaportLaw<2>::pair_force_batch(PairBatch<2>&) const;
 #elif KERNEL == 4
 template void RapaportLaw<3>::pair_force_batch(PairBatch<3>&) const;
+#elif KERNEL == 5
+template void LinearLaw<3>::wall_force_batch(WallBatch<3>&) const;
+#elif KERNEL == 6
+template void RapaportLaw<3>::wall_force_batch(WallBatch<3>&) const;
+#elif KERNEL == 7
+template void CylinderWall::flush<RapaportLaw<3>>(ParticleStore<3>&, const RapaportLaw<3>&, WallBatch<3>&) const;
 #else
-#error "KERNEL selects the kernel: 1-4"
+#error "KERNEL selects the kernel: 1-7"
 #endif
 }  // namespace granular

@@ -1,5 +1,5 @@
 """The loops the native code marks `#pragma omp simd` (the contact laws'
-batch kernels) are vectorised by the compiler, with AVX2 and with AVX-512.
+batch kernels for pairs and walls, the curved wall's contact geometry) are vectorised by the compiler, with AVX2 and with AVX-512.
 
 GCC keeps such a loop scalar when it cannot make it branch-free (a division
 under a condition, say: "control flow in loop" without AVX-512's masked
@@ -26,12 +26,16 @@ TU = ROOT / "tests" / "native" / "vectorised_kernels.cpp"
 # vectorisation; the instruction set is the test's.
 FLAGS = ["-std=c++17", "-O3", "-DNDEBUG", "-fno-math-errno", "-fopenmp"]
 TARGETS = {"AVX2": "-march=haswell", "AVX-512": "-march=skylake-avx512"}
-# KERNEL in vectorised_kernels.cpp -> (what it is, the header of its loop).
+# KERNEL in vectorised_kernels.cpp -> (what it is, the header of its loop,
+# which of the header's omp simd loops it is, counted from 0).
 KERNELS = {
-    1: ("linear law, 2D", "contact/linear.hpp"),
-    2: ("linear law, 3D", "contact/linear.hpp"),
-    3: ("Rapaport law, 2D", "contact/rapaport.hpp"),
-    4: ("Rapaport law, 3D", "contact/rapaport.hpp"),
+    1: ("linear law, pairs, 2D", "contact/linear.hpp", 0),
+    2: ("linear law, pairs, 3D", "contact/linear.hpp", 0),
+    3: ("Rapaport law, pairs, 2D", "contact/rapaport.hpp", 0),
+    4: ("Rapaport law, pairs, 3D", "contact/rapaport.hpp", 0),
+    5: ("linear law, walls, 3D", "contact/linear.hpp", 1),
+    6: ("Rapaport law, walls, 3D", "contact/rapaport.hpp", 1),
+    7: ("curved wall, contact geometry", "boundary/cylinder_wall.hpp", 0),
 }
 
 
@@ -58,15 +62,15 @@ def simd_pragmas():
 def test_every_simd_loop_has_a_kernel():
     """A new `omp simd` loop needs a KERNEL here, or this test would not see it."""
     pragmas = simd_pragmas()
-    assert set(pragmas) == {h for _, h in KERNELS.values()}, pragmas
-    assert all(len(lines) == 1 for lines in pragmas.values()), pragmas
+    loops = {(h, k) for h, lines in pragmas.items() for k in range(len(lines))}
+    assert loops == {(h, k) for _, h, k in KERNELS.values()}, pragmas
 
 
 @pytest.mark.parametrize("isa", sorted(TARGETS))
 @pytest.mark.parametrize("kernel", sorted(KERNELS))
 def test_the_kernel_is_vectorised(kernel, isa, tmp_path):
     cxx = compiler()
-    what, header = KERNELS[kernel]
+    what, header, index = KERNELS[kernel]
     cmd = [cxx, *FLAGS, TARGETS[isa], f"-DKERNEL={kernel}", f"-I{SRC}", "-isystem", "/usr/include/eigen3",
            "-fopt-info-vec-optimized", "-c", str(TU), "-o", str(tmp_path / "k.o")]
     run = subprocess.run(cmd, capture_output=True, text=True)
@@ -78,7 +82,7 @@ def test_the_kernel_is_vectorised(kernel, isa, tmp_path):
         done.add((rel, int(m.group(2))))
     # GCC names a loop by its first statement: the line after the `for`,
     # which follows the pragma (a few lines on, should the `for` wrap).
-    (pragma,) = simd_pragmas()[header]
+    pragma = simd_pragmas()[header][index]
     assert any((header, pragma + d) in done for d in range(1, 5)), (
         f"{isa}, {what}: the loop under '#pragma omp simd' at {header}:{pragma} was left scalar; "
         f"the compiler vectorised {sorted(done)}. Compile with -fopt-info-vec-missed to see why."

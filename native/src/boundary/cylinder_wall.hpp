@@ -29,32 +29,94 @@ struct CylinderWall {
   // needed: the wall turns about its own axis, so its surface never moves.
   // In two passes over blocks of particles: first the ones within reach of
   // the wall, without a branch (a fifth of the particles touch the wall, in
-  // no pattern a branch predictor could follow), then their contacts.
+  // no pattern a branch predictor could follow), then their contacts: in
+  // batches through the law's vectorised kernel where it has one
+  // (contact/wall_batch.hpp), else one by one.
   template <class Law>
   void apply(ParticleStore<3>& p, const Law& law, std::size_t lo, std::size_t hi, double /*t*/) const {
-    const double half_d = 0.5 * diameter;
     constexpr std::size_t kBlock = 256;
     std::uint32_t near[kBlock];
+    [[maybe_unused]] WallBatch<3> b;
     for (std::size_t b0 = lo; b0 < hi; b0 += kBlock) {
-      const std::size_t b1 = std::min(hi, b0 + kBlock);
-      std::size_t m = 0;
-      for (std::size_t i = b0; i < b1; ++i) {
-        const Eigen::Vector3d& x = p.x[i];
-        const double rr = x.x() * x.x() + x.z() * x.z();
-        const double reach = half_d - Law::range(p.d[i], d_wall);
-        near[m] = static_cast<std::uint32_t>(i);
-        m += rr > reach * reach;
-      }
-      for (std::size_t k = 0; k < m; ++k) {
-        const std::size_t i = near[k];
-        const Eigen::Vector3d& x = p.x[i];
-        const double r = std::sqrt(x.x() * x.x() + x.z() * x.z());
-        const Eigen::Vector3d riw(x.x(), 0.0, x.z());
-        const Eigen::Vector3d rp = (1.0 - half_d / r) * riw;                      // r'_iw
-        const Eigen::Vector3d s(-half_d * x.z() / r, 0.0, half_d * x.x() / r);   // (D/2) r^_iw x y^
-        wall_contact(p, law, i, rp, omega * s, d_wall, lever);
+      const std::size_t m = select_near<Law>(p, b0, std::min(hi, b0 + kBlock), near);
+      if constexpr (HasWallBatch<Law, 3>::value) {
+        for (std::size_t k = 0; k < m; ++k) {
+          if (b.n == WallBatch<3>::kSize) flush(p, law, b);
+          gather(p, near[k], b);
+        }
+      } else {
+        for (std::size_t k = 0; k < m; ++k) contact(p, law, near[k]);
       }
     }
+    if constexpr (HasWallBatch<Law, 3>::value)
+      if (b.n > 0) flush(p, law, b);
+  }
+
+ private:
+  // The particles of [b0, b1) within reach of the wall, into near; returns how many.
+  template <class Law>
+  std::size_t select_near(const ParticleStore<3>& p, std::size_t b0, std::size_t b1, std::uint32_t* near) const {
+    const double half_d = 0.5 * diameter;
+    std::size_t m = 0;
+    for (std::size_t i = b0; i < b1; ++i) {
+      const Eigen::Vector3d& x = p.x[i];
+      const double rr = x.x() * x.x() + x.z() * x.z();
+      const double reach = half_d - Law::range(p.d[i], d_wall);
+      near[m] = static_cast<std::uint32_t>(i);
+      m += rr > reach * reach;
+    }
+    return m;
+  }
+
+  // One contact, r'_iw and the wall's velocity from the header's equations.
+  template <class Law>
+  void contact(ParticleStore<3>& p, const Law& law, std::size_t i) const {
+    const double half_d = 0.5 * diameter;
+    const Eigen::Vector3d& x = p.x[i];
+    const double r = std::sqrt(x.x() * x.x() + x.z() * x.z());
+    const Eigen::Vector3d riw(x.x(), 0.0, x.z());
+    const Eigen::Vector3d rp = (1.0 - half_d / r) * riw;                      // r'_iw
+    const Eigen::Vector3d s(-half_d * x.z() / r, 0.0, half_d * x.x() / r);   // (D/2) r^_iw x y^
+    wall_contact(p, law, i, rp, omega * s, d_wall, lever);
+  }
+
+  // Particle i's state into the next lane of b, as it is (flush turns it into
+  // the contact's geometry).
+  static void gather(const ParticleStore<3>& p, std::uint32_t i, WallBatch<3>& b) {
+    const int q = b.n++;
+    b.i[q] = i;
+    b.ci[q] = p.species[i];
+    for (int a = 0; a < 3; ++a) {
+      b.rp[a][q] = p.x[i][a];
+      b.v[a][q] = p.v[i][a];
+      b.w[a][q] = p.w[i][a];
+    }
+    b.di[q] = p.d[i];
+    b.inv_mi[q] = p.inv_m[i];
+  }
+
+  // The geometry of contact(), lane by lane (the same expressions, so the
+  // same numbers), then the law's kernel, then the sums.
+  template <class Law>
+  void flush(ParticleStore<3>& p, const Law& law, WallBatch<3>& b) const {
+    const double half_d = 0.5 * diameter;
+    const int nb = b.n;
+#pragma omp simd
+    for (int k = 0; k < nb; ++k) {
+      const double x = b.rp[0][k], z = b.rp[2][k], di = b.di[k];
+      const double r = std::sqrt(x * x + z * z);
+      const double scale = 1.0 - half_d / r;
+      b.rp[0][k] = scale * x;  // r'_iw
+      b.rp[1][k] = scale * 0.0;
+      b.rp[2][k] = scale * z;
+      b.v[0][k] -= omega * (-half_d * z / r);  // v_i - Omega (D/2) r^_iw x y^
+      b.v[1][k] -= omega * 0.0;
+      b.v[2][k] -= omega * (half_d * x / r);
+      const double arm = lever.paper + lever.pair * di / (di + d_wall);  // wall_contact
+      for (int a = 0; a < 3; ++a) b.lever[a][k] = arm * b.rp[a][k];
+      b.d_iw[k] = 0.5 * (di + d_wall);
+    }
+    flush_wall_contacts(p, law, b);
   }
 };
 

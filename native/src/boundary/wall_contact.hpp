@@ -4,7 +4,9 @@
 // the force and torque to the particle.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 
+#include "contact/wall_batch.hpp"
 #include "core/particles.hpp"
 
 namespace granular {
@@ -25,6 +27,21 @@ GRANULAR_INLINE void wall_contact(ParticleStore<3>& p, const Law& law, std::size
   const auto res = law.wall_force(rp, di, 0.5 * (di + d_wall), viw, p.w[i], arm, p.species[i], p.inv_m[i]);
   p.f[i] += res.f;
   p.tq[i] += res.t;
+}
+
+// Evaluates the wall contacts gathered in batch b through the law's batch
+// kernel and adds each to its particle, in the order gathered (each particle
+// appears once per wall, so the sums are those of wall_contact).
+template <int Dim, class Law>
+void flush_wall_contacts(ParticleStore<Dim>& p, const Law& law, WallBatch<Dim>& b) {
+  constexpr int kA = WallBatch<Dim>::kAng;
+  law.wall_force_batch(b);
+  for (int q = 0; q < b.n; ++q) {
+    const std::uint32_t i = b.i[q];
+    for (int a = 0; a < Dim; ++a) p.f[i][a] += b.f[a][q];
+    for (int a = 0; a < kA; ++a) p.tq[i][a] += b.t[a][q];
+  }
+  b.n = 0;
 }
 
 }  // namespace granular

@@ -21,6 +21,7 @@
 #include <cmath>
 
 #include "contact/pair_batch.hpp"
+#include "contact/wall_batch.hpp"
 #include "core/space.hpp"
 
 namespace granular {
@@ -143,6 +144,42 @@ struct LinearLaw {
     const V vt = viw - vn * n - spin_cross(A(ri * wi), n);
     const V fs = friction(vt, c, damp_n, fn);
     return {fn * n + fs, -ri * moment(n, fs)};
+  }
+
+  // wall_force over a batch of wall contacts (contact/wall_batch.hpp), the
+  // same equations in the same order, lane by lane.
+  void wall_force_batch(WallBatch<Dim>& b) const {
+    constexpr int kA = WallBatch<Dim>::kAng;
+    const int nb = b.n;
+#pragma omp simd
+    for (int k = 0; k < nb; ++k) {
+      const Coeff& c = wall[b.ci[k]];
+      double r2 = 0.0;
+      for (int a = 0; a < Dim; ++a) r2 += b.rp[a][k] * b.rp[a][k];
+      const double r = std::sqrt(r2);
+      double n[Dim], vt[Dim], fs[Dim], wr[kA], wxn[Dim], m[kA];
+      for (int a = 0; a < Dim; ++a) n[a] = b.rp[a][k] / r;
+      const double ri = 0.5 * b.di[k];
+      double vn = 0.0;
+      for (int a = 0; a < Dim; ++a) vn += b.v[a][k] * n[a];
+      const double damp_n = c.gamma_n / b.inv_mi[k];
+      const double fn = c.kn * (ri - r) - damp_n * vn;
+      for (int a = 0; a < kA; ++a) wr[a] = ri * b.w[a][k];
+      spin_cross_c(wr, n, wxn);
+      double vt2 = 0.0;
+      for (int a = 0; a < Dim; ++a) {
+        vt[a] = b.v[a][k] - vn * n[a] - wxn[a];
+        vt2 += vt[a] * vt[a];
+      }
+      // friction(), without a select around the division (pair_force_batch).
+      const double vrel = std::sqrt(vt2);
+      const double cap = std::min(c.xgamma_t * damp_n * vrel, c.mu * std::abs(fn));
+      const double scale = (0.0 - cap) / (vrel + static_cast<double>(vrel == 0.0));
+      for (int a = 0; a < Dim; ++a) fs[a] = scale * vt[a];
+      moment_c(n, fs, m);
+      for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
+      for (int a = 0; a < kA; ++a) b.t[a][k] = -ri * m[a];
+    }
   }
 };
 

@@ -19,6 +19,7 @@
 #include <cmath>
 
 #include "contact/pair_batch.hpp"
+#include "contact/wall_batch.hpp"
 #include "core/space.hpp"
 
 namespace granular {
@@ -147,6 +148,43 @@ struct RapaportLaw {
     const V vs = viw - vn * n - spin_cross(wi, lever);   // v^s_iw, Sec. III
     const V fs = sliding(vs, wall[ci], fn);              // Eq. (5)
     return {fn * n + fs, -0.5 * di * moment(n, fs)};
+  }
+
+  // wall_force over a batch of wall contacts (contact/wall_batch.hpp):
+  // Eqs. (1), (2), (5) in the same order, lane by lane.
+  void wall_force_batch(WallBatch<Dim>& b) const {
+    constexpr int kA = WallBatch<Dim>::kAng;
+    const int nb = b.n;
+#pragma omp simd
+    for (int k = 0; k < nb; ++k) {
+      const Friction& fr = wall[b.ci[k]];
+      double r2 = 0.0;
+      for (int a = 0; a < Dim; ++a) r2 += b.rp[a][k] * b.rp[a][k];
+      const double inv_r = 1.0 / std::sqrt(r2);
+      double n[Dim], lv[Dim], vs[Dim], fs[Dim], wi[kA], wxl[Dim], m[kA];
+      for (int a = 0; a < Dim; ++a) {
+        n[a] = b.rp[a][k] * inv_r;
+        lv[a] = b.lever[a][k];
+      }
+      for (int a = 0; a < kA; ++a) wi[a] = b.w[a][k];
+      double vn = 0.0;
+      for (int a = 0; a < Dim; ++a) vn += n[a] * b.v[a][k];
+      const double fn = normal(inv_r, b.d_iw[k], vn, gamma_n);  // Eqs. (1), (2) with d_iw
+      spin_cross_c(wi, lv, wxl);
+      double vs2 = 0.0;
+      for (int a = 0; a < Dim; ++a) {
+        vs[a] = b.v[a][k] - vn * n[a] - wxl[a];  // v^s_iw, Sec. III
+        vs2 += vs[a] * vs[a];
+      }
+      // sliding(), Eq. (5), without a select around the division (pair_force_batch).
+      const double vabs = std::sqrt(vs2);
+      const double mag = std::min(fr.gamma_s * vabs, fr.mu * std::abs(fn));
+      const double scale = (0.0 - mag) / (vabs + static_cast<double>(vs2 == 0.0));
+      for (int a = 0; a < Dim; ++a) fs[a] = scale * vs[a];
+      moment_c(n, fs, m);
+      for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
+      for (int a = 0; a < kA; ++a) b.t[a][k] = -0.5 * b.di[k] * m[a];
+    }
   }
 
   // Potential of Eq. (1), shifted to zero at the cutoff; for energy checks only.
