@@ -71,6 +71,20 @@ Ang<Dim> random_ang(std::mt19937_64& gen, double scale) {
 
 struct Contact {
   std::size_t capped = 0, uncapped = 0, still = 0;
+  // Which branch of the friction law a contact's force f took (n: the
+  // normal, mu: its Coulomb coefficient).
+  template <class V>
+  void count(const V& f, const V& n, double mu) {
+    const double fn = f.dot(n);
+    const double fs = (f - fn * n).norm();
+    const double cap = mu * std::abs(fn);
+    if (fs == 0.0)
+      ++still;
+    else if (std::abs(fs - cap) <= 1e-9 * cap)
+      ++capped;
+    else
+      ++uncapped;
+  }
 };
 
 // Random contacts through both paths; returns how many were capped,
@@ -142,16 +156,7 @@ Contact check_batch_against_scalar(const Law& law, unsigned seed) {
       // Which branch of the friction law this contact took.
       V n;
       for (int a = 0; a < Dim; ++a) n[a] = b.dr[a][q];
-      n.normalize();
-      const double fn = e.f.dot(n);
-      const double fs = (e.f - fn * n).norm();
-      const double cap = law.coulomb_mu(c.ci, c.cj) * std::abs(fn);
-      if (fs == 0.0)
-        ++seen.still;
-      else if (std::abs(fs - cap) <= 1e-9 * cap)
-        ++seen.capped;
-      else
-        ++seen.uncapped;
+      seen.count(e.f, n.normalized(), law.coulomb_mu(c.ci, c.cj));
     }
   }
   return seen;
@@ -265,16 +270,8 @@ Contact check_wall_batch_against_scalar(const Law& law, double d_wall, Terms ter
         EXPECT_NEAR(b.f[a][q], e.f[a], kRel * scale) << "contact " << q << " axis " << a;
         EXPECT_NEAR(b.t[a][q], e.t[a], kRel * scale) << "contact " << q << " axis " << a;
       }
-      const V n = V(b.rp[0][q], b.rp[1][q], b.rp[2][q]).normalized();
-      const double fn = e.f.dot(n);
-      const double fs = (e.f - fn * n).norm();
-      const double cap = law.wall_coulomb_mu(expect[static_cast<std::size_t>(q)].ci) * std::abs(fn);
-      if (fs == 0.0)
-        ++seen.still;
-      else if (std::abs(fs - cap) <= 1e-9 * cap)
-        ++seen.capped;
-      else
-        ++seen.uncapped;
+      seen.count(e.f, V(b.rp[0][q], b.rp[1][q], b.rp[2][q]).normalized(),
+                 law.wall_coulomb_mu(expect[static_cast<std::size_t>(q)].ci));
     }
   }
   return seen;

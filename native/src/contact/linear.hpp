@@ -109,13 +109,7 @@ struct LinearLaw {
         vt2 += vt[a] * vt[a];
       }
       // friction(): F_t = -min(x_t g_n m_eff |v_t|, mu |F_n|) v_t/|v_t|, zero at v_t = 0
-      const double vrel = std::sqrt(vt2);
-      const double cap = std::min(c.xgamma_t * damp_n * vrel, c.mu * std::abs(fn));
-      // -cap / |v_t|, and +0 at v_t = 0 (then cap = 0, so 0 / 1), without a
-      // select around the division, which would keep the loop scalar on
-      // AVX2 (contact/rapaport.hpp).
-      const double scale = (0.0 - cap) / (vrel + static_cast<double>(vrel == 0.0));
-      for (int a = 0; a < Dim; ++a) fs[a] = scale * vt[a];
+      capped_friction_c(vt, vt2, c.xgamma_t * damp_n, c.mu * std::abs(fn), fs);
       moment_c(n, fs, m);
       for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
       for (int a = 0; a < kA; ++a) {
@@ -171,11 +165,7 @@ struct LinearLaw {
         vt[a] = b.v[a][k] - vn * n[a] - wxn[a];
         vt2 += vt[a] * vt[a];
       }
-      // friction(), without a select around the division (pair_force_batch).
-      const double vrel = std::sqrt(vt2);
-      const double cap = std::min(c.xgamma_t * damp_n * vrel, c.mu * std::abs(fn));
-      const double scale = (0.0 - cap) / (vrel + static_cast<double>(vrel == 0.0));
-      for (int a = 0; a < Dim; ++a) fs[a] = scale * vt[a];
+      capped_friction_c(vt, vt2, c.xgamma_t * damp_n, c.mu * std::abs(fn), fs);  // friction()
       moment_c(n, fs, m);
       for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
       for (int a = 0; a < kA; ++a) b.t[a][k] = -ri * m[a];

@@ -7,6 +7,8 @@
 // chain per contact. A law's batch kernel computes exactly what its
 // pair_force computes (tests/native/test_pair_batch.cpp).
 #pragma once
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <type_traits>
 #include <utility>
@@ -67,6 +69,20 @@ GRANULAR_INLINE void moment_c(const double (&r)[3], const double (&f)[3], double
 }
 GRANULAR_INLINE void moment_c(const double (&r)[2], const double (&f)[2], double (&out)[1]) {
   out[0] = r[0] * f[1] - r[1] * f[0];
+}
+
+// The capped viscous friction of the laws' kernels (pairs and walls), in one
+// lane: f = -min(g |v|, mu |f_n|) v/|v|, zero at v = 0 (v2 = |v|^2,
+// mu_fn = mu |f_n|). -min(...) / |v|, and +0 at v = 0 (then the min is 0,
+// so 0 / 1), written without a select around the division: a division under
+// a condition keeps the loop scalar without AVX-512's masked lanes (GCC 12,
+// AVX2: "control flow in loop").
+template <int N>
+GRANULAR_INLINE void capped_friction_c(const double (&v)[N], double v2, double g, double mu_fn, double (&f)[N]) {
+  const double vabs = std::sqrt(v2);
+  const double mag = std::min(g * vabs, mu_fn);
+  const double scale = (0.0 - mag) / (vabs + static_cast<double>(v2 == 0.0));
+  for (int a = 0; a < N; ++a) f[a] = scale * v[a];
 }
 
 }  // namespace granular

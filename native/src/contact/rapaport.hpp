@@ -112,15 +112,7 @@ struct RapaportLaw {
         vs[a] = b.v[a][k] - vn * n[a] - wxr[a];  // Eq. (3)
         vs2 += vs[a] * vs[a];
       }
-      // sliding(), Eq. (4): f_s = -min(gamma_s |v_s|, mu |f_n|) v^_s, zero at v_s = 0
-      const double vabs = std::sqrt(vs2);
-      const double mag = std::min(fr.gamma_s * vabs, fr.mu * std::abs(fn));
-      // -mag / |v_s|, and +0 at v_s = 0 (then mag = 0, so 0 / 1), written
-      // without a select around the division: a division under a condition
-      // keeps the loop scalar without AVX-512's masked lanes (GCC 12,
-      // AVX2: "control flow in loop").
-      const double scale = (0.0 - mag) / (vabs + static_cast<double>(vs2 == 0.0));
-      for (int a = 0; a < Dim; ++a) fs[a] = scale * vs[a];
+      capped_friction_c(vs, vs2, fr.gamma_s, fr.mu * std::abs(fn), fs);  // sliding(), Eq. (4)
       moment_c(n, fs, m);
       for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
       for (int a = 0; a < kA; ++a) {
@@ -176,11 +168,7 @@ struct RapaportLaw {
         vs[a] = b.v[a][k] - vn * n[a] - wxl[a];  // v^s_iw, Sec. III
         vs2 += vs[a] * vs[a];
       }
-      // sliding(), Eq. (5), without a select around the division (pair_force_batch).
-      const double vabs = std::sqrt(vs2);
-      const double mag = std::min(fr.gamma_s * vabs, fr.mu * std::abs(fn));
-      const double scale = (0.0 - mag) / (vabs + static_cast<double>(vs2 == 0.0));
-      for (int a = 0; a < Dim; ++a) fs[a] = scale * vs[a];
+      capped_friction_c(vs, vs2, fr.gamma_s, fr.mu * std::abs(fn), fs);  // sliding(), Eq. (5)
       moment_c(n, fs, m);
       for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
       for (int a = 0; a < kA; ++a) b.t[a][k] = -0.5 * b.di[k] * m[a];
