@@ -113,7 +113,7 @@ struct CylinderWall {
       b.v[0][k] -= omega * (-half_d * z / r);  // v_i - Omega (D/2) r^_iw x y^
       b.v[1][k] -= omega * 0.0;
       b.v[2][k] -= omega * (half_d * x / r);
-      const double arm = lever.paper + lever.pair * di / (di + d_wall);  // wall_contact
+      const double arm = lever.arm(di, d_wall);
       for (int a = 0; a < 3; ++a) b.lever[a][k] = arm * b.rp[a][k];
       b.d_iw[k] = 0.5 * (di + d_wall);
     }

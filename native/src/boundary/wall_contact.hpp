@@ -16,6 +16,8 @@ namespace granular {
 // resting particle of diameter d_w, d_i/(d_i + d_w) w_i x r'_iw.
 struct WallLever {
   double paper = 1.0, pair = 0.0;
+  // The factor on r'_iw for a particle of diameter d_i.
+  GRANULAR_INLINE double arm(double di, double d_wall) const { return paper + pair * di / (di + d_wall); }
 };
 
 template <class Law>
@@ -23,7 +25,7 @@ GRANULAR_INLINE void wall_contact(ParticleStore<3>& p, const Law& law, std::size
                                   const Eigen::Vector3d& wall_velocity, double d_wall, const WallLever& lever) {
   const double di = p.d[i];
   const Eigen::Vector3d viw = p.v[i] - wall_velocity;
-  const Eigen::Vector3d arm = (lever.paper + lever.pair * di / (di + d_wall)) * rp;
+  const Eigen::Vector3d arm = lever.arm(di, d_wall) * rp;
   const auto res = law.wall_force(rp, di, 0.5 * (di + d_wall), viw, p.w[i], arm, p.species[i], p.inv_m[i]);
   p.f[i] += res.f;
   p.tq[i] += res.t;

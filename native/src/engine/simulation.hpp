@@ -502,7 +502,7 @@ class Simulation {
     // The block's forces and torques start from the walls' (start_with_walls).
     // With a gate the first stage has just done it, piece by piece.
     if (!gate)
-      for (std::size_t a = lo; a < hi; a += kWallPiece) start_with_walls(std::min(hi, a + kWallPiece) - a, a, t_pos);
+      for (std::size_t a = lo; a < hi; a += kWallPiece) start_with_walls(a, std::min(hi, a + kWallPiece), t_pos);
 #pragma omp master
     ts.walls_done = PhaseTimers::Clock::now();
     Sinks sk{p.f.data(), p.tq.data(), p.f.data(), p.tq.data(), lo, hi - lo};
@@ -591,10 +591,9 @@ class Simulation {
     return true;
   }
 
-  // Particles [a, a + len): forces and torques zeroed, then the walls'
-  // contacts added (walls read and write the particles' own columns only).
-  void start_with_walls(std::size_t len, std::size_t a, double t_pos) {
-    const std::size_t e = a + len;
+  // Particles [a, e): forces and torques zeroed, then the walls' contacts
+  // added (walls read and write the particles' own columns only).
+  void start_with_walls(std::size_t a, std::size_t e, double t_pos) {
     std::fill(p.f.begin() + static_cast<std::ptrdiff_t>(a), p.f.begin() + static_cast<std::ptrdiff_t>(e), V::Zero());
     std::fill(p.tq.begin() + static_cast<std::ptrdiff_t>(a), p.tq.begin() + static_cast<std::ptrdiff_t>(e), A::Zero());
     std::apply([&](const auto&... w) { (w.apply(p, law, a, e, t_pos), ...); }, walls);
@@ -616,7 +615,7 @@ class Simulation {
       const std::size_t e = std::min(hi, a + kWallPiece);
       st = stage(a, e, st);
       const auto t0 = master ? PhaseTimers::Clock::now() : PhaseTimers::Clock::time_point{};
-      start_with_walls(e - a, a, t_pos);
+      start_with_walls(a, e, t_pos);
       if (master) ts.walls_in_stage += PhaseTimers::Clock::now() - t0;
     }
     return st;
