@@ -51,6 +51,7 @@ class Case:
     particles: int = 0
     rss_per_particle: float = 0.0  # native: peak resident memory / particles
     overlaps: list = field(default_factory=list)  # copies: the share of the shortest run all of them ran, per round
+    breakdowns: list = field(default_factory=list)  # native: where the step's time went, per round (breakdown_row)
     scratch: Path = Path("/tmp/compare_bench_yade.h5")  # YADE's output, overwritten each round
 
     def command(self, timed: float, settle: float) -> list[str]:
@@ -94,7 +95,16 @@ class Case:
                 "rates": list(self.rates),
                 "peak_rss_bytes": self.rss_per_particle * self.particles if self.rss_per_particle else None,
                 "builds_per_step": statistics.median(self.builds_per_step) if self.builds_per_step else None,
-                "overlap_min": min(self.overlaps) if self.overlaps else None}
+                "overlap_min": min(self.overlaps) if self.overlaps else None,
+                "breakdown": self.median_breakdown()}
+
+    def median_breakdown(self) -> dict | None:
+        """The breakdown of the median round (the lower of the middle two when
+        the rounds are even), so that it goes with the rate reported."""
+        if not self.breakdowns or len(self.breakdowns) != len(self.rates) or any(b is None for b in self.breakdowns):
+            return None
+        order = sorted(range(len(self.rates)), key=lambda k: self.rates[k])
+        return self.breakdowns[order[(len(order) - 1) // 2]]
 
 
 def default_cases(threads=(1, 2), lammps_ranks=(1, 2)) -> list[Case]:
@@ -324,9 +334,57 @@ def measure_native(group: list[Case], timed: float, settle: float) -> list[float
         c.rss_per_particle = float(row.get("peak_rss_bytes_per_particle", 0.0))
         if row.get("steps"):
             c.builds_per_step.append(float(row.get("neighbor_builds", 0)) / float(row["steps"]))
+        c.breakdowns.append(breakdown_row(row) if c.copies == 1 else None)
         c.rates.append(rate)
         rates.append(rate)
     return rates
+
+
+PHASES = ("integrate", "neighbor", "pairs", "walls", "observe")
+
+
+def breakdown_row(row: dict) -> dict | None:
+    """Where a native run's step spent its time, from `granular bench --json`'s
+    row (its median round): each phase in ns per particle-step and as a share
+    of the timed stretch, the neighbour-list builds per step, and the pair loop
+    per contact beside a bare kernel over a fixed contact list (the law's
+    pair_force over the run's final contacts, one thread; engine/timers.hpp).
+    None for an engine build that does not report it."""
+    b = row.get("breakdown")
+    if not b or not b.get("steps") or not b.get("seconds"):
+        return None
+    work = float(b["steps"]) * float(row["particles"])
+    out = {"phase_ns_per_particle_step": {k: 1e9 * float(b["phase_seconds"].get(k, 0.0)) / work for k in PHASES},
+           "phase_share": {k: float(b["phase_seconds"].get(k, 0.0)) / float(b["seconds"]) for k in PHASES},
+           "ns_per_particle_step": 1e9 * float(b["seconds"]) / work,
+           "builds_per_step": float(row.get("neighbor_builds", 0)) / float(b["steps"]),
+           "threads": int(b.get("threads", 1))}
+    if b.get("contacts"):
+        loop, bare = float(b["pair_loop_ns_per_contact"]), float(b["bare_kernel_ns_per_contact"])
+        out.update(contacts=int(b["contacts"]), pair_loop_ns_per_contact=loop, bare_kernel_ns_per_contact=bare,
+                   pair_loop_over_bare=loop / bare)
+    return out
+
+
+def breakdown_table(cases: list[dict]) -> list[str]:
+    """Markdown: each native case's breakdown (its median round)."""
+    rows = [r for r in cases if r.get("breakdown")]
+    if not rows:
+        return []
+    lines = ["", "Where the native step spends its time (each case's median round; ns per particle-step, the "
+             "share of the timed stretch in brackets). The pair loop per contact is set beside a bare kernel: the "
+             "law's pair force over the run's final contacts as a fixed list, one thread, no neighbour list.", "",
+             "| case | step | " + " | ".join(PHASES) + " | builds per step | pair loop (ns per contact) | "
+             "bare kernel | loop / bare |",
+             "|---|---|" + "---|" * len(PHASES) + "---|---|---|---|"]
+    for r in rows:
+        b = r["breakdown"]
+        cells = [f"{b['phase_ns_per_particle_step'][k]:.1f} ({100 * b['phase_share'][k]:.0f} %)" for k in PHASES]
+        tail = (f"{b['pair_loop_ns_per_contact']:.1f} | {b['bare_kernel_ns_per_contact']:.1f} | "
+                f"{b['pair_loop_over_bare']:.2f}" if "pair_loop_ns_per_contact" in b else " | | ")
+        lines.append(f"| {r['key']} | {b['ns_per_particle_step']:.1f} | " + " | ".join(cells) +
+                     f" | {b['builds_per_step']:.3f} | {tail} |")
+    return lines
 
 
 def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=1.0, box_settle=1.0,
@@ -390,6 +448,7 @@ def markdown(result) -> str:
     lines += [f"| {q['what']} | {q['ratio']:.2f} | " + (
         f"{q['per_round_median']:.2f} ({min(q['per_round']):.2f} – {max(q['per_round']):.2f})"
         if "per_round" in q else "") + " |" for q in result["ratios"]]
+    lines += breakdown_table(result["cases"])
     sc = result.get("scaling")
     if sc:
         lines += ["", "| particles | ns per particle-step | peak memory (MB) |", "|---|---|---|"]

@@ -221,15 +221,75 @@ def test_bench_counts_list_builds_and_a_wider_skin_builds_less_often():
     assert wide["builds_per_step"] < 0.7 * narrow["builds_per_step"], sweep
 
 
+def test_bench_breaks_the_step_down_by_phase_and_compare_reports_it():
+    """granular bench --json carries the median round's breakdown: seconds per
+    phase of the timed stretch, and the pair loop per contact beside the bare
+    kernel. compare bench turns it into ns per particle-step (the phases of a
+    run add up to most of its step, the step to the inverse of its rate) and
+    a table row per native case."""
+    from compare.bench import Case, breakdown_row, markdown
+    out = subprocess.run([str(BIN), "bench", str(SCENE_A), "--threads", "1", "2", "--rotations", "0.1",
+                          "--settle", "0.2", "--repeat", "1", "--json", "--set", "drum.length=32"],
+                         capture_output=True, text=True, check=True, timeout=600).stdout
+    rows = json.loads(out)
+    cases = []
+    for row in rows:
+        b = row["breakdown"]
+        assert b["steps"] == row["steps"] and b["seconds"] == pytest.approx(row["seconds"], rel=1e-12)
+        assert b["threads"] == row["threads"]
+        ph = b["phase_seconds"]
+        assert set(ph) == {"integrate", "neighbor", "pairs", "walls", "observe"}
+        assert all(v >= 0.0 for v in ph.values())
+        assert 0.5 * b["seconds"] < sum(ph.values()) <= 1.001 * b["seconds"], b
+        # Drum #A: the pairs take several times the curved wall's time, the
+        # wall far more than the observation (none in a bench), the list is rebuilt.
+        assert ph["pairs"] > 3 * ph["walls"] and ph["walls"] > 10 * ph["observe"] and ph["neighbor"] > 0.0, b
+        assert b["contacts"] > 0 and b["pair_loop_ns_per_contact"] > 0.0 and b["bare_kernel_ns_per_contact"] > 0.0
+        assert (b["tail_tasks"] > 0) == (row["threads"] > 1)
+        br = breakdown_row(row)
+        assert br["ns_per_particle_step"] == pytest.approx(1e9 / row["particle_steps_per_second"], rel=1e-9)
+        assert sum(br["phase_ns_per_particle_step"].values()) == pytest.approx(
+            br["ns_per_particle_step"] * sum(br["phase_share"].values()), rel=1e-12)
+        assert br["pair_loop_over_bare"] == pytest.approx(b["pair_loop_ns_per_contact"] /
+                                                          b["bare_kernel_ns_per_contact"])
+        c = Case(f"drum-native-rapaport-{row['threads']}t", str(SCENE_A), "native", "drum", row["threads"])
+        c.rates, c.breakdowns = [row["particle_steps_per_second"]], [br]
+        cases.append(c.summary())
+    table = markdown({"cases": cases, "ratios": [], "wall_seconds": 1.0,
+                      "settings": {"rounds": 1, "drum_settle_rotations": 0.2, "drum_rotations": 0.1,
+                                   "box_settle_seconds": 1.0, "box_seconds": 1.0}})
+    for c in cases:
+        line = [ln for ln in table.splitlines() if ln.startswith(f"| {c['key']} | ") and "(" in ln and "%" in ln]
+        assert len(line) == 1, table
+        assert f"{c['breakdown']['pair_loop_over_bare']:.2f} |" in line[0]
+
+
+def test_bench_breakdown_goes_with_the_median_round():
+    """The breakdown a case reports is that of the round whose rate is the
+    median reported, whatever order the rounds ran in."""
+    from compare.bench import Case
+    c = Case("box-native-verlet-1t", "scenes/box/f3.0_big.toml", "native", "one thread", 1)
+    c.rates = [3.0, 1.0, 2.0, 5.0, 4.0]
+    c.breakdowns = [{"round": k} for k in range(5)]
+    assert c.summary()["median"] == 3.0 and c.summary()["breakdown"] == {"round": 0}
+    c.rates, c.breakdowns = [4.0, 1.0, 2.0, 3.0], [{"round": k} for k in range(4)]
+    assert c.summary()["breakdown"] == {"round": 2}  # the lower of the middle two (2.0, 3.0)
+    c.breakdowns[2] = None  # a round without one: none reported rather than another round's
+    assert c.summary()["breakdown"] is None
+
+
 def test_bench_ceiling_runs_its_copies_at_once_and_sums_them():
     """granular bench --ceiling 2 (two 1-thread runs at once, the machine's
     limit for the thread ratios) must run its copies together, not one after
     the other, each timing the same settled state, and report the sum of their
     rates. Each run reports when it began and ended on the system's monotonic
     clock; the ceiling row carries the share of the shorter run during which
-    both ran."""
+    both ran. Each run times 0.4 rotations (about 0.1 s): with other tests
+    running beside it on the two cores, runs of 10 ms (0.05 rotations), about
+    a scheduler's time slice, were once put one after the other (overlap
+    0.30)."""
     out = subprocess.run([str(BIN), "bench", str(ROOT / "scenes/drum/A.toml"), "--threads", "1", "--ceiling", "2",
-                          "--rotations", "0.05", "--settle", "0.05", "--repeat", "2", "--json",
+                          "--rotations", "0.4", "--settle", "0.05", "--repeat", "2", "--json",
                           "--set", "drum.length=28"],
                          capture_output=True, text=True, check=True, timeout=600).stdout
     rows = {(r["threads"], r["copies"]): r for r in json.loads(out)}

@@ -374,6 +374,25 @@ int init_scene(const Loaded& l, const std::string& scene_path, std::string out_p
   return 0;
 }
 
+// A run's breakdown for `granular bench --json`: seconds per phase, and the
+// pair loop beside the bare kernel (engine/timers.hpp).
+nlohmann::json breakdown_json(const StepBreakdown& b) {
+  nlohmann::json ph;
+  for (int k = 0; k < static_cast<int>(Phase::count); ++k) ph[PhaseTimers::name(static_cast<Phase>(k))] = b.seconds[k];
+  nlohmann::json j{{"phase_seconds", ph},
+                   {"seconds", b.total_seconds},
+                   {"steps", b.steps},
+                   {"threads", b.threads},
+                   {"pairs_listed", b.pairs_listed},
+                   {"tail_tasks", b.tail_tasks},
+                   {"tails_taken_per_step", b.tails_taken_per_step}};
+  if (b.contacts > 0)
+    j.update({{"contacts", b.contacts},
+              {"pair_loop_ns_per_contact", b.pair_loop_ns},
+              {"bare_kernel_ns_per_contact", b.bare_kernel_ns}});
+  return j;
+}
+
 // granular bench: settle once (one thread), then `rounds` rounds, each timing
 // every thread count once and, with ceiling > 0, that many 1-thread runs at
 // once, every run a child forked from the settled state (app/bench_children.hpp).
@@ -413,7 +432,8 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
     return nlohmann::json{{"rate", r.particle_steps_per_second}, {"particles", r.particles},
                           {"begun", begun}, {"ended", now()},
                           {"seconds", r.seconds}, {"steps", r.steps}, {"neighbor_builds", r.neighbor_builds},
-                          {"timing", r.timing}, {"peak_rss_bytes", peak_rss_bytes()}};
+                          {"timing", r.timing}, {"breakdown", breakdown_json(r.breakdown)},
+                          {"peak_rss_bytes", peak_rss_bytes()}};
   };
   struct Series {
     int threads, copies;
@@ -472,6 +492,8 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
                    {"seconds", med["seconds"]},
                    {"steps", med["steps"]},
                    {"neighbor_builds", med["neighbor_builds"]},
+                   // the median round's (copies: the first run's)
+                   {"breakdown", med["breakdown"]},
                    {"copy_rates", med.value("copy_rates", nlohmann::json::array())},
                    {"overlap", med.value("overlap", 1.0)},
                    // peak resident memory of a run (one simulation in the process), per particle

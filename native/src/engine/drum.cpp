@@ -199,7 +199,8 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(r.steps) * n / r.seconds : 0.0;
   r.checkpoints = checkpoints.written();
-  r.timing = phase_report(sim, r.seconds);
+  r.breakdown = step_breakdown(sim, r.seconds);
+  r.timing = format_breakdown(r.breakdown);
   return r;
 }
 
@@ -264,7 +265,8 @@ RunReport time_drum(const DrumScene& s, DrumSim& sim, double rotations) {
   const long builds0 = std::visit([](auto& v) { return v.neighbors().builds(); }, sim);
   RunReport r = run_drum(a, sim, nullptr, false);
   std::visit([&](auto& v) {
-    r.timing = phase_report(v, r.seconds, r.steps);
+    r.breakdown = step_breakdown(v, r.seconds, r.steps);
+    r.timing = format_breakdown(r.breakdown);
     r.neighbor_builds = v.neighbors().builds() - builds0;
   }, sim);
   return r;

@@ -2,6 +2,7 @@
 #pragma once
 #include <array>
 #include <chrono>
+#include <cstddef>
 #include <cstdio>
 #include <sstream>
 #include <string>
@@ -14,9 +15,7 @@ class PhaseTimers {
  public:
   using Clock = std::chrono::steady_clock;
   void add(Phase ph, Clock::duration d) { total_[static_cast<int>(ph)] += d; }
-  double seconds(Phase ph) const {
-    return std::chrono::duration<double>(total_[static_cast<int>(ph)]).count();
-  }
+  double seconds(Phase ph) const { return std::chrono::duration<double>(total_[static_cast<int>(ph)]).count(); }
   static const char* name(Phase ph) {
     static const char* names[] = {"integrate", "neighbor", "pairs", "walls", "observe"};
     return names[static_cast<int>(ph)];
@@ -43,39 +42,68 @@ class ScopedPhase {
   PhaseTimers::Clock::time_point start_;
 };
 
-// Where the time of a run went, one line per phase, and the neighbour list's work.
-// With `steps` > 0 it also sets the pair loop's time per contact beside a bare
-// kernel's (Simulation::bare_kernel; contacts counted at the end of the run).
+// Where the time of a run went: seconds per phase, the neighbour list's work
+// and, for a timed stretch (bench), the pair loop beside a bare kernel over a
+// fixed contact list (Simulation::bare_kernel; contacts counted at the end).
+struct StepBreakdown {
+  std::array<double, static_cast<int>(Phase::count)> seconds{};
+  double total_seconds = 0.0;
+  long steps = 0;   // 0: the run's summary (no per-step figures)
+  long builds = 0;  // neighbour-list builds
+  std::size_t pairs_listed = 0;
+  int threads = 1;
+  int tail_tasks = 0;                 // tail tasks a step (0 on one thread)
+  double tails_taken_per_step = 0.0;  // of those, run by a thread other than their block's
+  std::size_t contacts = 0;           // 0: no pair-loop figures
+  double pair_loop_ns = 0.0;          // the pairs phase per step and contact
+  double bare_kernel_ns = 0.0;        // one contact through the law's pair_force, 1 thread
+};
+
 template <class Sim>
-std::string phase_report(const Sim& sim, double total_seconds, long steps = 0) {
-  std::ostringstream os;
-  for (int k = 0; k < static_cast<int>(Phase::count); ++k) {
-    const auto ph = static_cast<Phase>(k);
-    char buf[128];
-    std::snprintf(buf, sizeof buf, "  %-10s %8.2f s  %5.1f %%\n", PhaseTimers::name(ph), sim.timers.seconds(ph),
-                  total_seconds > 0 ? 100.0 * sim.timers.seconds(ph) / total_seconds : 0.0);
-    os << buf;
-  }
-  os << "  neighbour-list builds: " << sim.neighbors().builds() << ", pairs listed: " << sim.neighbors().n_pairs()
-     << "\n";
-  if (steps > 0 && sim.neighbors().tails() > 0) {
-    char buf[160];
-    std::snprintf(buf, sizeof buf, "  tail tasks run by a thread other than their block's: %.2f a step (of %d)\n",
-                  static_cast<double>(sim.timers.tails_taken) / static_cast<double>(steps),
-                  sim.neighbors().tails() * sim.neighbors().threads());
-    os << buf;
-  }
+StepBreakdown step_breakdown(const Sim& sim, double total_seconds, long steps = 0) {
+  StepBreakdown b;
+  for (int k = 0; k < static_cast<int>(Phase::count); ++k) b.seconds[k] = sim.timers.seconds(static_cast<Phase>(k));
+  b.total_seconds = total_seconds;
+  b.steps = steps;
+  b.builds = sim.neighbors().builds();
+  b.pairs_listed = sim.neighbors().n_pairs();
+  b.threads = sim.neighbors().threads();
+  b.tail_tasks = sim.neighbors().tails() * b.threads;
   if (steps > 0) {
+    b.tails_taken_per_step = static_cast<double>(sim.timers.tails_taken) / static_cast<double>(steps);
     const auto [contacts, bare_ns] = sim.bare_kernel();
     if (contacts > 0) {
-      const double loop_ns = 1e9 * sim.timers.seconds(Phase::pairs) / (static_cast<double>(steps) * contacts);
-      char buf[200];
-      std::snprintf(buf, sizeof buf,
-                    "  pair loop %.1f ns per contact (%zu contacts, %d thread(s)); bare kernel over a fixed "
-                    "contact list %.1f ns (1 thread): x%.2f\n",
-                    loop_ns, contacts, sim.neighbors().threads(), bare_ns, loop_ns / bare_ns);
-      os << buf;
+      b.contacts = contacts;
+      b.pair_loop_ns = 1e9 * b.seconds[static_cast<int>(Phase::pairs)] / (static_cast<double>(steps) * contacts);
+      b.bare_kernel_ns = bare_ns;
     }
+  }
+  return b;
+}
+
+// The breakdown, one line per phase, as a run's summary prints it.
+inline std::string format_breakdown(const StepBreakdown& b) {
+  std::ostringstream os;
+  for (int k = 0; k < static_cast<int>(Phase::count); ++k) {
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "  %-10s %8.2f s  %5.1f %%\n", PhaseTimers::name(static_cast<Phase>(k)),
+                  b.seconds[k], b.total_seconds > 0 ? 100.0 * b.seconds[k] / b.total_seconds : 0.0);
+    os << buf;
+  }
+  os << "  neighbour-list builds: " << b.builds << ", pairs listed: " << b.pairs_listed << "\n";
+  if (b.steps > 0 && b.tail_tasks > 0) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "  tail tasks run by a thread other than their block's: %.2f a step (of %d)\n",
+                  b.tails_taken_per_step, b.tail_tasks);
+    os << buf;
+  }
+  if (b.contacts > 0) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "  pair loop %.1f ns per contact (%zu contacts, %d thread(s)); bare kernel over a fixed "
+                  "contact list %.1f ns (1 thread): x%.2f\n",
+                  b.pair_loop_ns, b.contacts, b.threads, b.bare_kernel_ns, b.pair_loop_ns / b.bare_kernel_ns);
+    os << buf;
   }
   return os.str();
 }
