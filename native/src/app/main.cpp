@@ -322,7 +322,7 @@ int run_scene(const Loaded& l, const std::string& scene_path, std::string out_pa
     r = run_box(s, sim, &out, progress, ctl);
   }
   std::fprintf(stderr, "done: %ld steps in %.1f s, %.3g particle-steps/s\n%s", r.steps, r.seconds,
-               r.particle_steps_per_second, r.timing.c_str());
+               r.particle_steps_per_second, format_breakdown(r.breakdown).c_str());
   return 0;
 }
 
@@ -432,7 +432,7 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
     return nlohmann::json{{"rate", r.particle_steps_per_second}, {"particles", r.particles},
                           {"begun", begun}, {"ended", now()},
                           {"seconds", r.seconds}, {"steps", r.steps}, {"neighbor_builds", r.neighbor_builds},
-                          {"timing", r.timing}, {"breakdown", breakdown_json(r.breakdown)},
+                          {"timing", format_breakdown(r.breakdown)}, {"breakdown", breakdown_json(r.breakdown)},
                           {"peak_rss_bytes", peak_rss_bytes()}};
   };
   struct Series {

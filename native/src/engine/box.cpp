@@ -233,7 +233,6 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
   r.particle_steps_per_second = r.seconds > 0 ? r.steps * n / r.seconds : 0.0;
   r.checkpoints = checkpoints.written();
   r.breakdown = step_breakdown(sim, r.seconds);
-  r.timing = format_breakdown(r.breakdown);
   return r;
 }
 
@@ -295,7 +294,6 @@ RunReport time_box(const BoxScene& s, BoxSim& sim, double seconds) {
         r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         r.particle_steps_per_second = steps * static_cast<double>(v.p.size()) / r.seconds;
         r.breakdown = step_breakdown(v, r.seconds, steps);
-        r.timing = format_breakdown(r.breakdown);
         r.neighbor_builds = v.neighbors().builds() - builds0;
         return r;
       },

@@ -200,7 +200,6 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
   r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(r.steps) * n / r.seconds : 0.0;
   r.checkpoints = checkpoints.written();
   r.breakdown = step_breakdown(sim, r.seconds);
-  r.timing = format_breakdown(r.breakdown);
   return r;
 }
 
@@ -266,7 +265,6 @@ RunReport time_drum(const DrumScene& s, DrumSim& sim, double rotations) {
   RunReport r = run_drum(a, sim, nullptr, false);
   std::visit([&](auto& v) {
     r.breakdown = step_breakdown(v, r.seconds, r.steps);
-    r.timing = format_breakdown(r.breakdown);
     r.neighbor_builds = v.neighbors().builds() - builds0;
   }, sim);
   return r;

@@ -43,8 +43,7 @@ struct RunReport {
   long particles = 0;
   double seconds = 0.0;
   double particle_steps_per_second = 0.0;
-  StepBreakdown breakdown;  // where the time went (engine/timers.hpp)
-  std::string timing;       // the same, one line per phase
+  StepBreakdown breakdown;  // where the time went (engine/timers.hpp; format_breakdown prints it)
   long checkpoints = 0;  // checkpoints written
   long neighbor_builds = 0;  // neighbour-list builds in the timed steps (bench)
 };
