@@ -4,6 +4,7 @@
 #include <cstdlib>
 
 #include "engine/drum.hpp"
+#include "engine/steal_choice.hpp"
 #include "helpers.hpp"
 
 using namespace granular;
@@ -12,8 +13,10 @@ namespace {
 
 // stall_thread >= 0: that thread spins stall_us at the start of each force
 // evaluation, so that the other takes its tail tasks; taken counts them.
+// steal: 1 or 0 fixes whether a free thread takes them; -1 leaves it to the
+// engine's timing (engine/steal_choice.hpp).
 std::vector<double> run_small_drum(int threads, std::uint64_t seed, int stall_thread = -1, int stall_us = 0,
-                                   long* taken = nullptr) {
+                                   long* taken = nullptr, int steal = -1) {
   omp_set_num_threads(threads);
   DrumScene s;
   s.name = "det";
@@ -26,6 +29,7 @@ std::vector<double> run_small_drum(int threads, std::uint64_t seed, int stall_th
       [&](auto& v) {
         v.stall_thread = stall_thread;
         v.stall_for = std::chrono::microseconds(stall_us);
+        if (steal >= 0) v.steal_choice().fix(steal == 1);
         v.timers.reset();
         for (int k = 0; k < 600; ++k) v.step();
         if (taken) *taken = v.timers.tails_taken;
@@ -67,14 +71,53 @@ TEST(Determinism, TailTasksRunByEitherThreadGiveTheSameBits) {
   const auto free_run = run_small_drum(2, 3, -1, 0, &taken_free);
   for (int stalled : {0, 1}) {
     long taken = 0;
-    const auto a = run_small_drum(2, 3, stalled, 300, &taken);
+    const auto a = run_small_drum(2, 3, stalled, 300, &taken, 1);
     ASSERT_EQ(a.size(), free_run.size());
     // The test has teeth only if the stall moved tasks: at 300 us a step the
     // other thread finishes its own block first nearly every step.
     EXPECT_GT(taken, 600) << "thread " << stalled << " stalled";
     EXPECT_EQ(0, std::memcmp(a.data(), free_run.data(), a.size() * sizeof(double)))
         << "thread " << stalled << " stalled: " << taken << " tail tasks taken (" << taken_free << " without the stall)";
+    // Never taken: each thread runs its own, and the bits are the same.
+    long none = 0;
+    const auto b = run_small_drum(2, 3, stalled, 300, &none, 0);
+    EXPECT_EQ(none, 0) << "thread " << stalled << " stalled, stealing off";
+    EXPECT_EQ(0, std::memcmp(b.data(), free_run.data(), b.size() * sizeof(double)))
+        << "thread " << stalled << " stalled, stealing off";
   }
+}
+
+// The choice to take other blocks' tail tasks (engine/steal_choice.hpp):
+// a window with, a window without, the faster for kExploit windows, then
+// both timed again. A choice that kept the first, or the slower, fails it.
+TEST(StealChoice, KeepsTheFasterAndTimesBothAgain) {
+  using ms = std::chrono::milliseconds;
+  StealChoice c;
+  EXPECT_TRUE(c.steal());
+  // Stretches shorter than a window add up.
+  EXPECT_FALSE(c.record(10, ms(5)));
+  EXPECT_TRUE(c.steal());
+  EXPECT_TRUE(c.record(90, ms(25)));  // with: 0.30 ms a step
+  EXPECT_FALSE(c.steal());
+  EXPECT_TRUE(c.record(100, ms(20)));  // without: 0.20 ms a step
+  for (int w = 0; w < StealChoice::kExploit; ++w) {
+    EXPECT_FALSE(c.steal()) << "exploit window " << w;
+    // Even a fast window here does not change the choice.
+    EXPECT_TRUE(c.record(1000, ms(21)));
+  }
+  // Both again: now stealing is the faster.
+  EXPECT_TRUE(c.steal());
+  EXPECT_TRUE(c.record(100, ms(21)));  // with: 0.21
+  EXPECT_FALSE(c.steal());
+  EXPECT_TRUE(c.record(100, ms(30)));  // without: 0.30
+  for (int w = 0; w < StealChoice::kExploit; ++w) {
+    EXPECT_TRUE(c.steal()) << "exploit window " << w;
+    c.record(100, ms(25));
+  }
+  // Fixed: no timing changes it.
+  c.fix(false);
+  for (int w = 0; w < 3 * (2 + StealChoice::kExploit); ++w) EXPECT_FALSE(c.record(100, ms(25)));
+  EXPECT_FALSE(c.steal());
 }
 
 // The test programs wait as granular does (tests/native/main.cpp): libgomp

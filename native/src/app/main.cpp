@@ -385,7 +385,9 @@ nlohmann::json breakdown_json(const StepBreakdown& b) {
                    {"threads", b.threads},
                    {"pairs_listed", b.pairs_listed},
                    {"tail_tasks", b.tail_tasks},
-                   {"tails_taken_per_step", b.tails_taken_per_step}};
+                   {"tails_taken_per_step", b.tails_taken_per_step},
+                   {"steal_windows", b.steal_windows},
+                   {"steal_windows_stealing", b.steal_windows_stealing}};
   if (b.contacts > 0)
     j.update({{"contacts", b.contacts},
               {"pair_loop_ns_per_contact", b.pair_loop_ns},

@@ -23,6 +23,7 @@
 #include "core/doorbell.hpp"
 #include "core/particles.hpp"
 #include "core/threads.hpp"
+#include "engine/steal_choice.hpp"
 #include "engine/timers.hpp"
 #include "neighbor/neighbor_list.hpp"
 
@@ -93,6 +94,18 @@ class Simulation {
   void advance(long n) {
     const int nt = omp_get_max_threads();
     while (n > 0) {
+      // Each stretch between rebuilds is timed for the choice to take other
+      // blocks' tail tasks (engine/steal_choice.hpp).
+      const auto stretch_start = StealChoice::Clock::now();
+      const long n_start = n;
+      const auto timed = [&] {
+        if (nt == 1) return;
+        const bool stole = steal_choice_.steal();
+        if (steal_choice_.record(n_start - n, StealChoice::Clock::now() - stretch_start)) {
+          ++timers.steal_windows;
+          timers.steal_windows_stealing += stole;
+        }
+      };
       if (nt != nl_.threads()) rebuild();  // the thread count changed since the last build
       prepare_buffers(nt);
       const auto& xref = nl_.reference_positions();
@@ -173,7 +186,10 @@ class Simulation {
       time = time_out;
       step_count += completed;
       n -= completed;
-      if (n == 0) break;
+      if (n == 0) {
+        timed();
+        break;
+      }
       // The step whose verdict was to rebuild: its first stage is done.
       ++seq_;
       check_stable(st);  // throws if unstable
@@ -196,6 +212,7 @@ class Simulation {
       time += dt;
       ++step_count;
       --n;
+      timed();
     }
   }
 
@@ -662,7 +679,7 @@ class Simulation {
     constexpr int kT = NeighborList<Dim>::kTails;
     for (int k = 0; k < kT; ++k)
       if (claim(static_cast<std::size_t>(t * kT + k), gen)) run_tail(t, t, k);
-    for (int s = 1; s < nt; ++s) {
+    for (int s = 1; s < nt && steal_choice_.steal(); ++s) {
       const int u = (t + s) % nt;
       for (int k = kT - 1; k >= 0; --k) {
         if (!claim(static_cast<std::size_t>(u * kT + k), gen)) break;
@@ -689,6 +706,9 @@ class Simulation {
  public:
   int stall_thread = -1;
   std::chrono::microseconds stall_for{0};
+  // Whether a free thread takes other blocks' tail tasks (timed, or fixed by
+  // a test).
+  StealChoice& steal_choice() { return steal_choice_; }
 
  private:
   // Moves the threads' counts of tail tasks taken into the timers (between regions).
@@ -873,6 +893,7 @@ class Simulation {
   std::vector<Done> done_;             // per thread, see Gate
   long seq_ = 0;                       // the steps taken by this object, for Done
   long gen_ = 0;                       // the last claim number handed out (Claim)
+  StealChoice steal_choice_;  // changed between regions, by the master thread only
   std::vector<std::vector<V>> task_f_;  // per tail task (NeighborList::tail_offsets)
   std::vector<std::vector<A>> task_t_;
   std::vector<Claim> claims_;  // per tail task

@@ -23,9 +23,13 @@ class PhaseTimers {
   void reset() {
     total_.fill(Clock::duration::zero());
     tails_taken = 0;
+    steal_windows = steal_windows_stealing = 0;
   }
   // Tail tasks run by a thread other than their block's owner (engine/simulation.hpp).
   long tails_taken = 0;
+  // Windows timed for the choice to take them (engine/steal_choice.hpp), and
+  // those in which they were taken.
+  long steal_windows = 0, steal_windows_stealing = 0;
 
  private:
   std::array<Clock::duration, static_cast<int>(Phase::count)> total_{};
@@ -54,6 +58,8 @@ struct StepBreakdown {
   int threads = 1;
   int tail_tasks = 0;                 // tail tasks a step (0 on one thread)
   double tails_taken_per_step = 0.0;  // of those, run by a thread other than their block's
+  long steal_windows = 0;             // windows timed for the choice to take them (engine/steal_choice.hpp)
+  long steal_windows_stealing = 0;    // of those, with the tasks taken
   std::size_t contacts = 0;           // 0: no pair-loop figures
   double pair_loop_ns = 0.0;          // the pairs phase per step and contact
   double bare_kernel_ns = 0.0;        // one contact through the law's pair_force, 1 thread
@@ -71,6 +77,8 @@ StepBreakdown step_breakdown(const Sim& sim, double total_seconds, long steps = 
   b.tail_tasks = sim.neighbors().tails() * b.threads;
   if (steps > 0) {
     b.tails_taken_per_step = static_cast<double>(sim.timers.tails_taken) / static_cast<double>(steps);
+    b.steal_windows = sim.timers.steal_windows;
+    b.steal_windows_stealing = sim.timers.steal_windows_stealing;
     const auto [contacts, bare_ns] = sim.bare_kernel();
     if (contacts > 0) {
       b.contacts = contacts;
@@ -93,8 +101,10 @@ inline std::string format_breakdown(const StepBreakdown& b) {
   os << "  neighbour-list builds: " << b.builds << ", pairs listed: " << b.pairs_listed << "\n";
   if (b.steps > 0 && b.tail_tasks > 0) {
     char buf[160];
-    std::snprintf(buf, sizeof buf, "  tail tasks run by a thread other than their block's: %.2f a step (of %d)\n",
-                  b.tails_taken_per_step, b.tail_tasks);
+    std::snprintf(buf, sizeof buf,
+                  "  tail tasks run by a thread other than their block's: %.2f a step (of %d); taken in %ld of %ld "
+                  "timed windows\n",
+                  b.tails_taken_per_step, b.tail_tasks, b.steal_windows_stealing, b.steal_windows);
     os << buf;
   }
   if (b.contacts > 0) {
