@@ -94,9 +94,9 @@ class Simulation {
   void advance(long n) {
     const int nt = omp_get_max_threads();
     while (n > 0) {
-      // Each stretch between rebuilds is timed for the choice to take other
-      // blocks' tail tasks (engine/steal_choice.hpp).
-      const auto stretch_start = StealChoice::Clock::now();
+      // Each stretch between rebuilds is timed, on two or more threads, for
+      // the choice to take other blocks' tail tasks (engine/steal_choice.hpp).
+      const auto stretch_start = nt > 1 ? StealChoice::Clock::now() : StealChoice::Clock::time_point{};
       const long n_start = n;
       const auto timed = [&] {
         if (nt == 1) return;

@@ -50,9 +50,8 @@ class StealChoice {
       with_ = per_step;
       steal_ = false;
       phase_ = 1;
-    } else if (phase_ == 1) {  // timed without; keep the faster
-      without_ = per_step;
-      steal_ = with_ <= without_;
+    } else if (phase_ == 1) {  // timed without (per_step); keep the faster
+      steal_ = with_ <= per_step;
       phase_ = 2;
     } else if (++phase_ == 2 + kExploit) {
       steal_ = true;
@@ -67,7 +66,7 @@ class StealChoice {
   int phase_ = 0;  // 0: timing with, 1: timing without, 2..: the faster
   long steps_ = 0;
   double seconds_ = 0.0;
-  double with_ = 0.0, without_ = 0.0;  // seconds per step
+  double with_ = 0.0;  // seconds per step with stealing, in the last timing
 };
 
 }  // namespace granular
