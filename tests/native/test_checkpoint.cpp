@@ -43,8 +43,8 @@ BoxScene box(const std::vector<std::string>& sets) {
   return read_box_scene(f);
 }
 
-template <class T>
-bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
+template <class T, class Alloc>
+bool same_bits(const std::vector<T, Alloc>& a, const std::vector<T, Alloc>& b) {
   return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
 }
 

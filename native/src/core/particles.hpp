@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/column.hpp"
 #include "core/space.hpp"
 
 namespace granular {
@@ -17,20 +18,20 @@ struct ParticleStore {
   using V = Vec<Dim>;
   using A = Ang<Dim>;
 
-  std::vector<V> x;       // position
-  std::vector<V> v;       // velocity
-  std::vector<A> w;       // angular velocity
-  std::vector<V> f;       // force (contacts only; gravity is added as an acceleration)
-  std::vector<A> tq;      // torque
-  std::vector<double> d;  // diameter
-  std::vector<double> inv_m;
-  std::vector<double> inv_i;  // inverse moment of inertia
-  std::vector<std::int32_t> species;
-  std::vector<std::int64_t> id;
+  Column<V> x;       // position
+  Column<V> v;       // velocity
+  Column<A> w;       // angular velocity
+  Column<V> f;       // force (contacts only; gravity is added as an acceleration)
+  Column<A> tq;      // torque
+  Column<double> d;  // diameter
+  Column<double> inv_m;
+  Column<double> inv_i;  // inverse moment of inertia
+  Column<std::int32_t> species;
+  Column<std::int64_t> id;
   // Extra per-particle state that some integrators keep (Gear's higher time
   // derivatives). Empty unless an integrator asks for it; permuted with the rest.
-  std::vector<std::vector<V>> aux_v;
-  std::vector<std::vector<A>> aux_a;
+  std::vector<Column<V>> aux_v;
+  std::vector<Column<A>> aux_a;
 
   std::size_t size() const { return x.size(); }
 
@@ -78,8 +79,8 @@ struct ParticleStore {
   void reorder_in_parallel(const std::vector<std::uint32_t>& perm, std::size_t lo, std::size_t hi,
                            bool forces = true) {
     constexpr std::size_t kMax = 8;
-    std::array<std::vector<V>*, kMax> cv{};
-    std::array<std::vector<A>*, kMax> ca{};
+    std::array<Column<V>*, kMax> cv{};
+    std::array<Column<A>*, kMax> ca{};
     std::size_t nv = 0, na = 0;
     cv[nv++] = &x;
     cv[nv++] = &v;
@@ -92,7 +93,7 @@ struct ParticleStore {
       throw std::logic_error("reorder_in_parallel: more auxiliary columns than it holds");
     for (auto& col : aux_v) cv[nv++] = &col;
     for (auto& col : aux_a) ca[na++] = &col;
-    const std::array<std::vector<double>*, 3> cd{&d, &inv_m, &inv_i};
+    const std::array<Column<double>*, 3> cd{&d, &inv_m, &inv_i};
     const std::size_t rounds = std::max({nv, na, cd.size()});
     for (std::size_t r = 0; r < rounds; ++r) {
       if (r < nv) gather(*cv[r], scratch_v_, perm, lo, hi);
@@ -118,16 +119,16 @@ struct ParticleStore {
 
  private:
   template <class T>
-  static void gather(const std::vector<T>& col, std::vector<T>& scratch, const std::vector<std::uint32_t>& perm,
+  static void gather(const Column<T>& col, Column<T>& scratch, const std::vector<std::uint32_t>& perm,
                      std::size_t lo, std::size_t hi) {
     for (std::size_t k = lo; k < hi; ++k) scratch[k] = col[perm[k]];
   }
 
-  std::vector<V> scratch_v_;
-  std::vector<A> scratch_a_;
-  std::vector<double> scratch_d_;
-  std::vector<std::int32_t> scratch_s_;
-  std::vector<std::int64_t> scratch_id_;
+  Column<V> scratch_v_;
+  Column<A> scratch_a_;
+  Column<double> scratch_d_;
+  Column<std::int32_t> scratch_s_;
+  Column<std::int64_t> scratch_id_;
 };
 
 }  // namespace granular

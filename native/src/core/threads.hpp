@@ -6,12 +6,17 @@
 #include <cstddef>
 #include <utility>
 
+#include "core/column.hpp"
+
 namespace granular {
 
 inline std::pair<std::size_t, std::size_t> thread_block(std::size_t n, int nt, int t) {
-  const std::size_t q = n / nt, r = n % nt;
-  const std::size_t lo = t * q + std::min<std::size_t>(t, r);
-  return {lo, lo + q + (static_cast<std::size_t>(t) < r ? 1 : 0)};
+  // Each bound but n a multiple of kLineParticles, so that no cache line of a
+  // column (core/column.hpp) holds two blocks' particles.
+  const auto bound = [&](int k) {
+    return k == nt ? n : n * static_cast<std::size_t>(k) / static_cast<std::size_t>(nt) / kLineParticles * kLineParticles;
+  };
+  return {bound(t), bound(t + 1)};
 }
 
 }  // namespace granular

@@ -14,24 +14,26 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "core/column.hpp"
 #include "io/checkpoint_file.hpp"
 
 namespace granular {
 
 namespace ckpt_detail {
 
-template <class T>
-std::vector<double> flat(const std::vector<T>& col) {
+template <class T, class Alloc>
+std::vector<double> flat(const std::vector<T, Alloc>& col) {
   static_assert(sizeof(T) == T::SizeAtCompileTime * sizeof(double), "vector columns must be packed doubles");
   std::vector<double> out(col.size() * T::SizeAtCompileTime);
   if (!col.empty()) std::memcpy(out.data(), col.data(), out.size() * sizeof(double));
   return out;
 }
 
-template <class T>
-void unflat(const CheckpointData& c, const std::string& name, std::size_t n, std::vector<T>& col) {
+template <class T, class Alloc>
+void unflat(const CheckpointData& c, const std::string& name, std::size_t n, std::vector<T, Alloc>& col) {
   const auto it = c.reals.find(name);
   if (it == c.reals.end()) throw std::runtime_error("the checkpoint lacks column " + name);
   if (it->second.size() != n * T::SizeAtCompileTime)
@@ -68,12 +70,12 @@ void capture(const Sim& sim, CheckpointData& c) {
   c.reals["w"] = flat(p.w);
   c.reals["f"] = flat(p.f);
   c.reals["tq"] = flat(p.tq);
-  c.reals["d"] = p.d;
-  c.reals["inv_m"] = p.inv_m;
-  c.reals["inv_i"] = p.inv_i;
+  c.reals["d"].assign(p.d.begin(), p.d.end());
+  c.reals["inv_m"].assign(p.inv_m.begin(), p.inv_m.end());
+  c.reals["inv_i"].assign(p.inv_i.begin(), p.inv_i.end());
   c.reals["x_ref"] = flat(sim.neighbors().reference_positions());
   c.ints["species"] = std::vector<std::int64_t>(p.species.begin(), p.species.end());
-  c.ints["id"] = p.id;
+  c.ints["id"].assign(p.id.begin(), p.id.end());
   for (std::size_t k = 0; k < p.aux_v.size(); ++k) c.reals["aux_v" + std::to_string(k)] = flat(p.aux_v[k]);
   for (std::size_t k = 0; k < p.aux_a.size(); ++k) c.reals["aux_a" + std::to_string(k)] = flat(p.aux_a[k]);
 }
@@ -90,19 +92,20 @@ void restore(Sim& sim, const CheckpointData& c) {
   unflat(c, "w", n, p.w);
   unflat(c, "f", n, p.f);
   unflat(c, "tq", n, p.tq);
-  p.d = reals(c, "d", n);
-  p.inv_m = reals(c, "inv_m", n);
-  p.inv_i = reals(c, "inv_i", n);
+  p.d.assign(reals(c, "d", n).begin(), reals(c, "d", n).end());
+  p.inv_m.assign(reals(c, "inv_m", n).begin(), reals(c, "inv_m", n).end());
+  p.inv_i.assign(reals(c, "inv_i", n).begin(), reals(c, "inv_i", n).end());
   const auto& sp = ints(c, "species", n);
   p.species.assign(sp.begin(), sp.end());
-  p.id = ints(c, "id", n);
+  const auto& id = ints(c, "id", n);
+  p.id.assign(id.begin(), id.end());
   for (std::size_t k = 0; k < p.aux_v.size(); ++k) unflat(c, "aux_v" + std::to_string(k), n, p.aux_v[k]);
   for (std::size_t k = 0; k < p.aux_a.size(); ++k) unflat(c, "aux_a" + std::to_string(k), n, p.aux_a[k]);
-  std::vector<typename Sim::V> x_ref;
+  Column<typename Sim::V> x_ref;
   unflat(c, "x_ref", n, x_ref);
   sim.time = c.time;
   sim.step_count = c.step;
-  sim.restore_neighbors(x_ref);
+  sim.restore_neighbors(std::move(x_ref));
 }
 
 }  // namespace granular

@@ -221,9 +221,9 @@ class Simulation {
   // from. Building from them lists the same pairs in the same rows, and
   // reorders nothing (the cell sort is stable and the store is in its order),
   // so the next step sums forces exactly as the interrupted run would have.
-  void restore_neighbors(std::vector<V> x_ref) {
+  void restore_neighbors(Column<V> x_ref) {
     set_d_min();
-    const std::vector<std::int64_t> saved_order = p.id;
+    const Column<std::int64_t> saved_order = p.id;
     std::swap(p.x, x_ref);
     rebuild();
     std::swap(p.x, x_ref);
@@ -333,8 +333,8 @@ class Simulation {
     const std::size_t n = p.size();
     const std::size_t nb = nt > 1 ? static_cast<std::size_t>(nt) : 0;
     if (fbuf_.size() != nb || (nb > 0 && fbuf_[0].size() != n)) {
-      fbuf_.assign(nb, std::vector<V>(n, V::Zero()));  // each thread zeroes what it writes: forces_in_region
-      tbuf_.assign(nb, std::vector<A>(n, A::Zero()));
+      fbuf_.assign(nb, Column<V>(n, V::Zero()));  // each thread zeroes what it writes: forces_in_region
+      tbuf_.assign(nb, Column<A>(n, A::Zero()));
     }
     const std::size_t ntasks = nb * NeighborList<Dim>::kTails;
     if (claims_.size() != ntasks) std::vector<Claim>(ntasks).swap(claims_);
@@ -691,8 +691,8 @@ class Simulation {
   // Thread t runs tail task k of block u into the task's buffer.
   void run_tail(int t, int u, int k) {
     const std::size_t task = static_cast<std::size_t>(u * NeighborList<Dim>::kTails + k);
-    std::vector<V>& bf = task_f_[task];
-    std::vector<A>& bt = task_t_[task];
+    Column<V>& bf = task_f_[task];
+    Column<A>& bt = task_t_[task];
     std::fill(bf.begin(), bf.end(), V::Zero());
     std::fill(bt.begin(), bt.end(), A::Zero());
     const TaskSinks sk{bf.data(), bt.data(), nl_.tail_offsets(task)};
@@ -887,15 +887,15 @@ class Simulation {
 
   NeighborList<Dim> nl_;
   double d_min_ = std::numeric_limits<double>::infinity();  // smallest diameter (the step-move limit)
-  std::vector<std::vector<V>> fbuf_;
-  std::vector<std::vector<A>> tbuf_;
+  std::vector<Column<V>> fbuf_;
+  std::vector<Column<A>> tbuf_;
   std::vector<PairBatch<Dim>> batch_;  // per thread, for laws with a batch kernel
   std::vector<Done> done_;             // per thread, see Gate
   long seq_ = 0;                       // the steps taken by this object, for Done
   long gen_ = 0;                       // the last claim number handed out (Claim)
   StealChoice steal_choice_;  // changed between regions, by the master thread only
-  std::vector<std::vector<V>> task_f_;  // per tail task (NeighborList::tail_offsets)
-  std::vector<std::vector<A>> task_t_;
+  std::vector<Column<V>> task_f_;  // per tail task (NeighborList::tail_offsets)
+  std::vector<Column<A>> task_t_;
   std::vector<Claim> claims_;  // per tail task
 };
 

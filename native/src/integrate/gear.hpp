@@ -44,8 +44,8 @@ struct Gear5 {
   // the forces at t = 0 are known: r2 starts from them, higher terms at zero.
   void start(ParticleStore<Dim>& p) const {
     const std::size_t n = p.size();
-    p.aux_v.assign(4, std::vector<V>(n, V::Zero()));
-    p.aux_a.assign(5, std::vector<A>(n, A::Zero()));
+    p.aux_v.assign(4, Column<V>(n, V::Zero()));
+    p.aux_a.assign(5, Column<A>(n, A::Zero()));
     const double h2 = 0.5 * dt * dt;
     for (std::size_t i = 0; i < n; ++i) {
       p.aux_v[0][i] = h2 * (p.f[i] * p.inv_m[i] + gravity);
@@ -55,15 +55,15 @@ struct Gear5 {
 
   // Named views of the aux columns (see start()).
   struct Columns {
-    std::vector<V>&r2, &r3, &r4, &r5;
-    std::vector<A>&q0, &q2, &q3, &q4, &q5;
+    Column<V>&r2, &r3, &r4, &r5;
+    Column<A>&q0, &q2, &q3, &q4, &q5;
     explicit Columns(ParticleStore<Dim>& p)
         : r2(p.aux_v[0]), r3(p.aux_v[1]), r4(p.aux_v[2]), r5(p.aux_v[3]), q0(p.aux_a[0]), q2(p.aux_a[1]),
           q3(p.aux_a[2]), q4(p.aux_a[3]), q5(p.aux_a[4]) {}
   };
 
   template <bool P>
-  DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref, std::size_t lo,
+  DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next, const DriftStats& seed = DriftStats()) const {
     return stages<false, true>(p, box, x_ref, lo, hi, t_next, seed);
   }
@@ -78,7 +78,7 @@ struct Gear5 {
   // second_half() then first_half() (the same bits), with its fifteen columns
   // read and written once instead of twice.
   template <bool P>
-  DriftStats second_then_first(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref,
+  DriftStats second_then_first(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref,
                                std::size_t lo, std::size_t hi, double t_next,
                                const DriftStats& seed = DriftStats()) const {
     return stages<true, true>(p, box, x_ref, lo, hi, t_next, seed);
@@ -144,7 +144,7 @@ struct Gear5 {
   // and the statistics belong to the predictor; the corrector alone
   // (second_half) passes placeholders it never reads.
   template <bool Correct, bool Predict, bool P>
-  DriftStats stages(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref, std::size_t lo,
+  DriftStats stages(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref, std::size_t lo,
                     std::size_t hi, double t_next, const DriftStats& seed) const {
     // A local, returned as a copy (drift_stats.hpp: kept in registers).
     DriftStats st = seed;

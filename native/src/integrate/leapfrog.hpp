@@ -35,7 +35,7 @@ struct Leapfrog {
   // Stage 1 on particles [lo, hi); t_next = time at the end of the step. The
   // statistics start from seed (where to name fast particles: drift_stats.hpp).
   template <bool P>
-  DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref, std::size_t lo,
+  DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next, const DriftStats& seed = DriftStats()) const {
     return kicks_then_drift<1>(p, box, x_ref, lo, hi, t_next, seed);
   }
@@ -59,7 +59,7 @@ struct Leapfrog {
   // order as from second_half() then first_half() (the same bits), with its
   // columns read and written once instead of twice.
   template <bool P>
-  DriftStats second_then_first(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref,
+  DriftStats second_then_first(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref,
                                std::size_t lo, std::size_t hi, double t_next,
                                const DriftStats& seed = DriftStats()) const {
     return kicks_then_drift<2>(p, box, x_ref, lo, hi, t_next, seed);
@@ -77,7 +77,7 @@ struct Leapfrog {
 
   // Kicks half kicks, then the drift, on particles [lo, hi).
   template <int Kicks, bool P>
-  DriftStats kicks_then_drift(ParticleStore<Dim>& p, const Box<Dim, P>& box, const std::vector<V>& x_ref,
+  DriftStats kicks_then_drift(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref,
                               std::size_t lo, std::size_t hi, double t_next, const DriftStats& seed) const {
     // A local, returned as a copy (drift_stats.hpp: kept in registers).
     DriftStats st = seed;

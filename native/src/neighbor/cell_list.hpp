@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/box.hpp"
+#include "core/column.hpp"
 #include "core/threads.hpp"
 
 namespace granular {
@@ -33,7 +34,7 @@ class CellList {
   // cells and threads, per-thread scatter). Particles keep their index order
   // within a cell, so the result is the same for any thread count.
   template <bool P>
-  void build_in_region(const Box<Dim, P>& box, const std::vector<V>& x, const std::vector<double>& d, double d_large,
+  void build_in_region(const Box<Dim, P>& box, const Column<V>& x, const Column<double>& d, double d_large,
                        double min_cell, int t, int nt, std::size_t lo, std::size_t hi) {
     const std::size_t n = x.size();
 #pragma omp single

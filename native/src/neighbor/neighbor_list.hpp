@@ -334,7 +334,7 @@ class NeighborList {
   // Particles in the large class at the last build (0: one class).
   std::size_t n_large() const { return n_large_; }
   long builds() const { return builds_; }
-  const std::vector<V>& reference_positions() const { return x_ref_; }
+  const Column<V>& reference_positions() const { return x_ref_; }
 
   // Whether every pair in range now is listed, once the two largest
   // displacements since the build add up to more than the skin
@@ -421,6 +421,8 @@ class NeighborList {
         i = rhi;
       }
       while (i < n && acc < target) acc += weight_[i++];
+      // On a cache line of every column (core/column.hpp).
+      while (i < n && i % kLineParticles != 0) acc += weight_[i++];
       bounds_[k] = i;
       block_work_[k - 1] = acc - done;
       done = acc;
@@ -475,7 +477,7 @@ class NeighborList {
   std::vector<std::vector<std::uint8_t>> tail_touched_;  // per tail task: see tail_touched()
   std::vector<std::vector<std::uint32_t>> tail_list_;
   std::vector<std::vector<std::int64_t>> tail_offset_;  // per tail task: see tail_offsets()
-  std::vector<V> x_ref_;
+  Column<V> x_ref_;
   double skin_ = 0.0;
   double d_max_ = 0.0;         // the largest diameter at the build
   double range_factor_ = 0.0;  // the build's range(d_i, d_j) / (d_i + d_j)
