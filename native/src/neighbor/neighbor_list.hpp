@@ -5,6 +5,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <utility>
@@ -100,14 +101,36 @@ class NeighborList {
     work_.resize(nt_);
     x_ref_.resize(n);
     static_assert(sizeof(V) == Dim * sizeof(double), "pair_scan reads the positions as packed doubles");
+    // The size classes (above): d_small is the largest diameter that is not
+    // large. Eight running maxima and counts, which the compiler keeps in
+    // vector lanes: one chain of maxima, each waiting for the last, took
+    // the serial start of a build in the shaken box 4 us (docs/speed_accuracy.md,
+    // stop 45). A maximum is exact in any order: the same classes.
+    constexpr std::size_t kLanes = 8;
+    const double* dp = p.d.data();
+    std::array<double, kLanes> lane_max{}, lane_small{};
+    std::array<std::uint64_t, kLanes> lane_large{};
+    std::size_t k8 = 0;
+    for (; k8 + kLanes <= n; k8 += kLanes)
+      for (std::size_t q = 0; q < kLanes; ++q) lane_max[q] = dp[k8 + q] > lane_max[q] ? dp[k8 + q] : lane_max[q];
     double d_max = 0.0;
-    for (double dj : p.d) d_max = std::max(d_max, dj);
-    // The size classes (above): d_small is the largest diameter that is not large.
+    for (double m : lane_max) d_max = std::max(d_max, m);
+    for (std::size_t k = k8; k < n; ++k) d_max = std::max(d_max, dp[k]);
     double d_large = d_max / kLargeRatio, d_small = 0.0;
+    for (std::size_t k = 0; k < k8; k += kLanes)
+      for (std::size_t q = 0; q < kLanes; ++q) {
+        const double dj = dp[k + q];
+        lane_large[q] += dj > d_large;
+        lane_small[q] = dj <= d_large && dj > lane_small[q] ? dj : lane_small[q];
+      }
     std::size_t n_large = 0;
-    for (double dj : p.d) {
-      n_large += dj > d_large;
-      if (dj <= d_large) d_small = std::max(d_small, dj);
+    for (std::size_t q = 0; q < kLanes; ++q) {
+      n_large += lane_large[q];
+      d_small = std::max(d_small, lane_small[q]);
+    }
+    for (std::size_t k = k8; k < n; ++k) {
+      n_large += dp[k] > d_large;
+      if (dp[k] <= d_large) d_small = std::max(d_small, dp[k]);
     }
     if (n_large == 0 || n_large * kLargeShare > n) {
       d_large = std::numeric_limits<double>::infinity();
@@ -246,16 +269,32 @@ class NeighborList {
       if (nt_ > 1)
         for_row_segments(blo, bhi, [&](std::size_t a, std::size_t e, const std::uint32_t* c) {
           for (std::size_t i = a; i < e; ++i) {
+            const std::uint32_t kb = row_begin_[i], ke = row_end_[i];
             // The core's rows write the store for the block and a ghost
-            // buffer for the rest; a tail task writes its buffer for all.
-            const bool in_core = i < core;
-            auto& tm = in_core ? mark : tail_touched_[static_cast<std::size_t>(tail_of(t, i))];
-            tm[i / kChunk] |= static_cast<std::uint8_t>(!in_core);
+            // buffer for the rest: only a row that reads outside the block
+            // marks anything, and most read inside it, which the smallest
+            // and largest column tell without a write (a vector reduction;
+            // marking every column cost the drum's two threads 30 us a
+            // build, docs/speed_accuracy.md, stop 45).
+            if (i < core) {
+              std::uint32_t lo_c = std::numeric_limits<std::uint32_t>::max(), hi_c = 0;
+              for (std::uint32_t k = kb; k < ke; ++k) {
+                lo_c = std::min(lo_c, c[k]);
+                hi_c = std::max(hi_c, c[k]);
+              }
+              if (kb == ke || (lo_c >= blo && hi_c < bhi)) continue;
+              if (own_end == bhi) own_end = i;
+              for (std::uint32_t k = kb; k < ke; ++k)
+                if (c[k] < blo || c[k] >= bhi) mark[c[k] / kChunk] = 1;
+              continue;
+            }
+            // A tail task writes its buffer for all of its particles.
+            auto& tm = tail_touched_[static_cast<std::size_t>(tail_of(t, i))];
+            tm[i / kChunk] = 1;
             std::uint8_t out_i = 0;
-            for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k) {
-              const std::uint8_t o = static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
-              tm[c[k] / kChunk] |= static_cast<std::uint8_t>(o | !in_core);
-              out_i |= o;
+            for (std::uint32_t k = kb; k < ke; ++k) {
+              out_i |= static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
+              tm[c[k] / kChunk] = 1;
             }
             if (out_i && own_end == bhi) own_end = i;
           }
