@@ -51,6 +51,8 @@ class NeighborList {
   // too, into a buffer of its own that is summed in a fixed order, so the
   // result does not depend on which thread ran it.
   static constexpr int kTails = 3;
+  // Rows whose columns the marking pass of a build tests at once (build()).
+  static constexpr std::size_t kMarkRows = 16;
   static constexpr std::uint64_t kTailPercent = 8;
 
   // Sorts the store by cell (reorder), then lists pairs. The contact law's
@@ -268,31 +270,42 @@ class NeighborList {
       std::size_t own_end = bhi;
       if (nt_ > 1)
         for_row_segments(blo, bhi, [&](std::size_t a, std::size_t e, const std::uint32_t* c) {
-          for (std::size_t i = a; i < e; ++i) {
-            const std::uint32_t kb = row_begin_[i], ke = row_end_[i];
-            // The core's rows write the store for the block and a ghost
-            // buffer for the rest: only a row that reads outside the block
-            // marks anything, and most read inside it, which the smallest
-            // and largest column tell without a write (a vector reduction;
-            // marking every column cost the drum's two threads 30 us a
-            // build, docs/speed_accuracy.md, stop 45).
-            if (i < core) {
-              std::uint32_t lo_c = std::numeric_limits<std::uint32_t>::max(), hi_c = 0;
-              for (std::uint32_t k = kb; k < ke; ++k) {
-                lo_c = std::min(lo_c, c[k]);
-                hi_c = std::max(hi_c, c[k]);
-              }
-              if (kb == ke || (lo_c >= blo && hi_c < bhi)) continue;
-              if (own_end == bhi) own_end = i;
-              for (std::uint32_t k = kb; k < ke; ++k)
-                if (c[k] < blo || c[k] >= bhi) mark[c[k] / kChunk] = 1;
+          // The core's rows write the store for the block and a ghost buffer
+          // for the rest: only a row that reads outside the block marks
+          // anything. Most read inside it, which the smallest and largest
+          // column of kMarkRows rows at a time tell (their columns are
+          // contiguous in c) without a write: a vector reduction. Marking
+          // every column cost the drum's two threads 30 us a build, and a
+          // test per row (4.5 columns) still 24 (docs/speed_accuracy.md,
+          // stop 45).
+          const std::size_t core_e = std::min(e, core);
+          for (std::size_t i = a; i < core_e;) {
+            const std::size_t i1 = std::min(core_e, i + kMarkRows);
+            std::uint32_t lo_c = std::numeric_limits<std::uint32_t>::max(), hi_c = 0;
+            for (std::uint32_t k = row_begin_[i], ke = row_end_[i1 - 1]; k < ke; ++k) {
+              lo_c = std::min(lo_c, c[k]);
+              hi_c = std::max(hi_c, c[k]);
+            }
+            if (lo_c >= blo && hi_c < bhi) {
+              i = i1;
               continue;
             }
-            // A tail task writes its buffer for all of its particles.
+            for (; i < i1; ++i) {
+              bool out_i = false;
+              for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k)
+                if (c[k] < blo || c[k] >= bhi) {
+                  mark[c[k] / kChunk] = 1;
+                  out_i = true;
+                }
+              if (out_i && own_end == bhi) own_end = i;
+            }
+          }
+          // A tail task writes its buffer for all of its particles.
+          for (std::size_t i = std::max(a, core); i < e; ++i) {
             auto& tm = tail_touched_[static_cast<std::size_t>(tail_of(t, i))];
             tm[i / kChunk] = 1;
             std::uint8_t out_i = 0;
-            for (std::uint32_t k = kb; k < ke; ++k) {
+            for (std::uint32_t k = row_begin_[i], ke = row_end_[i]; k < ke; ++k) {
               out_i |= static_cast<std::uint8_t>((c[k] < blo) | (c[k] >= bhi));
               tm[c[k] / kChunk] = 1;
             }
