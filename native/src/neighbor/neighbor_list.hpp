@@ -51,9 +51,9 @@ class NeighborList {
   // too, into a buffer of its own that is summed in a fixed order, so the
   // result does not depend on which thread ran it.
   static constexpr int kTails = 3;
+  static constexpr std::uint64_t kTailPercent = 8;
   // Rows whose columns the marking pass of a build tests at once (build()).
   static constexpr std::size_t kMarkRows = 16;
-  static constexpr std::uint64_t kTailPercent = 8;
 
   // Sorts the store by cell (reorder), then lists pairs. The contact law's
   // interaction range is range_factor * (d_i + d_j) (every law's form,
@@ -274,9 +274,9 @@ class NeighborList {
           // for the rest: only a row that reads outside the block marks
           // anything. Most read inside it, which the smallest and largest
           // column of kMarkRows rows at a time tell (their columns are
-          // contiguous in c) without a write: a vector reduction. Marking
-          // every column cost the drum's two threads 30 us a build, and a
-          // test per row (4.5 columns) still 24 (docs/speed_accuracy.md,
+          // contiguous in c) without a write: a vector reduction. Testing
+          // the columns a row at a time (4.5 a row on the drum) cost the
+          // drum's thread 0 25 us a build, 10 this way (docs/speed_accuracy.md,
           // stop 45).
           const std::size_t core_e = std::min(e, core);
           for (std::size_t i = a; i < core_e;) {
