@@ -2,7 +2,6 @@
 // output order matters uses it, so results are bitwise identical for a given
 // thread count.
 #pragma once
-#include <algorithm>
 #include <cstddef>
 #include <utility>
 

@@ -348,7 +348,7 @@ class Simulation {
   // the step's number (a release store, so that whoever reads the number also
   // sees the statistics and the positions the thread moved). One cache line
   // each, so that one thread's writes do not evict another's.
-  struct alignas(64) Done {
+  struct alignas(kCacheLine) Done {
     std::atomic<long> seq{0};
     std::atomic<long> met{0};  // the last step whose pairs the thread finished (meet)
     mutable Doorbell bell;     // rung after seq or met is published; the waiters sleep on it
@@ -655,7 +655,7 @@ class Simulation {
 
   // A tail task taken at most once per evaluation: gen is the last
   // evaluation that claimed it. One cache line each.
-  struct alignas(64) Claim {
+  struct alignas(kCacheLine) Claim {
     std::atomic<long> gen{0};
     Claim() = default;
     Claim(const Claim& o) : gen(o.gen.load(std::memory_order_relaxed)) {}
