@@ -1,6 +1,6 @@
 // How much two threads of one process can gain on this machine, for a loop
 // shaped like the engine's step, with no physics in it (docs/speed_accuracy.md):
-//   thread_probe [--particles N] [--steps S] [--rounds R] > probe.json
+//   thread_probe [--particles N] [--steps S] [--rounds R] [--halo-lines L] [--ghost-lines G] > probe.json
 // The work is a stand-in for the integration: each of N particles updates 10
 // double columns per step. Measured, in interleaved rounds (medians):
 //   - one thread on N/2 particles, the process alone;
@@ -10,6 +10,8 @@
 //   - two threads of one process, each on its own half of N, never meeting;
 //   - the same with one OpenMP barrier per step (the engine's step has two
 //     barriers and a fork and join);
+//   - the same with the engine's two meetings per step instead, alone and
+//     with a halo of L lines one way and G lines back each step (halo());
 //   - the round trip of a cache line between the two threads.
 // Two threads "never meeting" share only the process: when they run slower
 // than two processes, the loss is the machine's, not any program's
@@ -69,6 +71,71 @@ double stream(std::size_t n, long steps, int threads, bool meet) {
 #pragma omp barrier
       }
     }
+  }
+  const double us = 1e6 * std::chrono::duration<double>(Clock::now() - t0).count() / static_cast<double>(steps);
+  volatile double sink = c[9][0];
+  (void)sink;
+  return us;
+}
+
+// Microseconds per step of two threads on n particles that meet twice a step
+// and exchange a halo, as the engine's two threads do (engine/simulation.hpp):
+// thread 1 writes `out` cache lines before the step's first meeting (the
+// moved positions and velocities of its particles that thread 0's rows
+// read), thread 0 reads them after it and writes `back` lines (its ghost
+// forces for those particles), which thread 1 reads after the second
+// meeting. Each half's pass is split in two around the first meeting. With
+// no lines this is the two meetings alone. The shaken box at 3 Hz exchanges
+// about 36 lines one way and 25 the other (docs/speed_accuracy.md, stop 46).
+double halo(std::size_t n, long steps, std::size_t out, std::size_t back) {
+  constexpr int kColumns = 10;
+  constexpr std::size_t kLine = 8;  // doubles
+  std::vector<std::vector<double>> col(kColumns, std::vector<double>(n + 2 * kGap, 1.0));
+  std::vector<double*> c(kColumns);
+  for (int k = 0; k < kColumns; ++k) c[k] = col[k].data();
+  struct alignas(64) Flag {
+    std::atomic<long> seq{0}, met{0};
+    granular::Doorbell bell;
+  };
+  std::vector<Flag> flag(2);
+  std::vector<double> h_out(out * kLine + kLine, 1.0), h_back(back * kLine + kLine, 1.0);
+  const auto t0 = Clock::now();
+#pragma omp parallel num_threads(2)
+  {
+    const int t = omp_get_thread_num(), u = 1 - t;
+    const auto [share_lo, share_hi] = granular::thread_block(n, 2, t);
+    const std::size_t gap = kGap * static_cast<std::size_t>(t), lo = share_lo + gap, hi = share_hi + gap;
+    const std::size_t mid = lo + (hi - lo) / 2;
+    double carry = 0.0;
+    const auto pass = [&](std::size_t a, std::size_t e) {
+      for (std::size_t i = a; i < e; ++i) {
+        const double x = c[0][i] * 0.5 + c[1][i];
+        c[2][i] += x * c[3][i];
+        c[4][i] = c[5][i] + c[2][i] * 1e-3;
+        c[6][i] += c[7][i] * c[8][i];
+        c[9][i] = x;
+      }
+    };
+    for (long s = 1; s <= steps; ++s) {
+      if (t == 1)
+        for (std::size_t k = 0; k < out * kLine; ++k) h_out[k] = carry + static_cast<double>(k);
+      pass(lo, mid);
+      flag[t].seq.store(s, std::memory_order_release);
+      flag[t].bell.ring();
+      flag[u].bell.wait_until([&] { return flag[u].seq.load(std::memory_order_acquire) >= s; });
+      if (t == 0) {
+        double sum = 0.0;
+        for (std::size_t k = 0; k < out * kLine; ++k) sum += h_out[k];
+        for (std::size_t k = 0; k < back * kLine; ++k) h_back[k] = sum + static_cast<double>(k);
+      }
+      pass(mid, hi);
+      flag[t].met.store(s, std::memory_order_release);
+      flag[t].bell.ring();
+      flag[u].bell.wait_until([&] { return flag[u].met.load(std::memory_order_acquire) >= s; });
+      if (t == 1)
+        for (std::size_t k = 0; k < back * kLine; ++k) carry += h_back[k];
+    }
+    if (t == 1) c[9][lo] += carry * 1e-300;
   }
   const double us = 1e6 * std::chrono::duration<double>(Clock::now() - t0).count() / static_cast<double>(steps);
   volatile double sink = c[9][0];
@@ -144,13 +211,18 @@ int main(int argc, char** argv) {
   std::size_t n = 8000;
   long steps = 20000;
   int rounds = 8;
+  std::size_t out_lines = 36, back_lines = 25;
   app.add_option("--particles", n, "particles of the whole loop (each thread or process gets half)")
       ->check(CLI::Range(std::size_t{2}, std::size_t{1} << 28));
   app.add_option("--steps", steps, "steps per measurement")->check(CLI::PositiveNumber);
   app.add_option("--rounds", rounds, "interleaved rounds (medians reported)")->check(CLI::PositiveNumber);
+  app.add_option("--halo-lines", out_lines, "cache lines thread 1 writes and thread 0 reads each step")
+      ->check(CLI::Range(std::size_t{0}, std::size_t{1} << 20));
+  app.add_option("--ghost-lines", back_lines, "cache lines thread 0 writes and thread 1 reads each step")
+      ->check(CLI::Range(std::size_t{0}, std::size_t{1} << 20));
   CLI11_PARSE(app, argc, argv);
   try {
-    std::vector<double> alone, procs, slower, apart, meeting, trip;
+    std::vector<double> alone, procs, slower, apart, meeting, two_meetings, with_halo, trip;
     for (int r = 0; r < rounds; ++r) {
       alone.push_back(stream(n / 2, steps, 1, false));
       const auto both = two_processes(n / 2, steps);
@@ -158,6 +230,8 @@ int main(int argc, char** argv) {
       slower.push_back(std::max(both[0], both[1]));
       apart.push_back(stream(n, steps, 2, false));
       meeting.push_back(stream(n, steps, 2, true));
+      two_meetings.push_back(halo(n, steps, 0, 0));
+      with_halo.push_back(halo(n, steps, out_lines, back_lines));
       trip.push_back(round_trip_ns());
     }
     const double a = median(alone);
@@ -165,21 +239,28 @@ int main(int argc, char** argv) {
     j["particles"] = n;
     j["steps"] = steps;
     j["rounds"] = rounds;
+    j["halo_lines"] = out_lines;
+    j["ghost_lines"] = back_lines;
     j["us_per_step"] = {{"one_thread_half_alone", a},
                         {"two_processes_half_each", median(procs)},
                         {"two_processes_slower_one", median(slower)},
                         {"two_threads_apart", median(apart)},
-                        {"two_threads_one_barrier_per_step", median(meeting)}};
+                        {"two_threads_one_barrier_per_step", median(meeting)},
+                        {"two_threads_two_meetings_per_step", median(two_meetings)},
+                        {"two_threads_two_meetings_and_halo", median(with_halo)}};
     // Speed-ups over one thread doing all the work (twice the half's time).
     j["speedup"] = {{"two_processes", 2.0 * a / median(procs)},
                     {"two_processes_slower_one", 2.0 * a / median(slower)},
                     {"two_threads_apart", 2.0 * a / median(apart)},
-                    {"two_threads_one_barrier_per_step", 2.0 * a / median(meeting)}};
+                    {"two_threads_one_barrier_per_step", 2.0 * a / median(meeting)},
+                    {"two_threads_two_meetings_per_step", 2.0 * a / median(two_meetings)},
+                    {"two_threads_two_meetings_and_halo", 2.0 * a / median(with_halo)}};
     j["round_trip_ns"] = {{"median", median(trip)},
                           {"min", *std::min_element(trip.begin(), trip.end())},
                           {"max", *std::max_element(trip.begin(), trip.end())}};
     j["rounds_us"] = {{"alone", alone}, {"processes", procs}, {"processes_slower", slower},
-                      {"apart", apart}, {"meeting", meeting}, {"round_trip_ns", trip}};
+                      {"apart", apart}, {"meeting", meeting}, {"two_meetings", two_meetings},
+                      {"halo", with_halo}, {"round_trip_ns", trip}};
     std::cout << j.dump(2) << "\n";
   } catch (const std::exception& e) {
     std::cerr << e.what() << "\n";
