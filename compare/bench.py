@@ -432,7 +432,10 @@ def probe_line(probe) -> str:
             f"{probe['rounds']} rounds): two processes at once {s['two_processes']:.2f} times one alone "
             f"({s['two_processes_slower_one']:.2f} counting the slower one); two threads that never meet "
             f"{s['two_threads_apart']:.2f}; two threads with a barrier per step "
-            f"{s['two_threads_one_barrier_per_step']:.2f}. Cache-line round trip between the threads "
+            f"{s['two_threads_one_barrier_per_step']:.2f}; with the engine's two meetings per step "
+            f"{s['two_threads_two_meetings_per_step']:.2f}, and exchanging {probe['halo_lines']} and "
+            f"{probe['ghost_lines']} cache lines at them (the shaken box's halo) "
+            f"{s['two_threads_two_meetings_and_halo']:.2f}. Cache-line round trip between the threads "
             f"{rt['median']:.0f} ns (median; {rt['min']:.0f} – {rt['max']:.0f}).")
 
 

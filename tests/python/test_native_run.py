@@ -407,13 +407,16 @@ def test_thread_probe_reports_its_loop_and_compare_bench_quotes_it(monkeypatch):
     for key, time_key in (("two_processes", "two_processes_half_each"),
                           ("two_processes_slower_one", "two_processes_slower_one"),
                           ("two_threads_apart", "two_threads_apart"),
-                          ("two_threads_one_barrier_per_step", "two_threads_one_barrier_per_step")):
+                          ("two_threads_one_barrier_per_step", "two_threads_one_barrier_per_step"),
+                          ("two_threads_two_meetings_per_step", "two_threads_two_meetings_per_step"),
+                          ("two_threads_two_meetings_and_halo", "two_threads_two_meetings_and_halo")):
         assert s[key] == pytest.approx(2 * us["one_thread_half_alone"] / us[time_key]), key
     procs, slower = probe["rounds_us"]["processes"], probe["rounds_us"]["processes_slower"]
     assert slower == [max(procs[2 * r], procs[2 * r + 1]) for r in range(3)], (procs, slower)
     assert probe["round_trip_ns"]["min"] <= probe["round_trip_ns"]["median"] <= probe["round_trip_ns"]["max"]
     line = probe_line(probe)
     assert f"{s['two_threads_one_barrier_per_step']:.2f}" in line and f"{s['two_processes']:.2f}" in line
+    assert f"{s['two_threads_two_meetings_and_halo']:.2f}" in line and probe["halo_lines"] == 36
 
 
 def test_bench_scaling_pairs_the_sizes_round_by_round():
