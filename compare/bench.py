@@ -410,15 +410,17 @@ def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=
             "skin": skin_sweep(rows)}
 
 
-def machine_probe(rounds=8, particles=8000) -> dict | None:
+def machine_probe(rounds=8, particles=18800) -> dict | None:
     """`build/thread_probe`: two threads against two processes on a loop shaped
     like the step with no physics in it (native/tools/thread_probe.cpp). Tells
     what this machine gives two workers that must finish together, whatever the
-    program; None when the probe was not built."""
+    program; None when the probe was not built. 18 800 particles make each
+    thread's half-step as long as the shaken box's on two threads here (11.6
+    µs), so that its halo figure is the box's exchange at the box's pace."""
     probe = native_bin().parent / "thread_probe"
     if not probe.exists():
         return None
-    steps = max(1000, int(1.6e8 / particles / 10))
+    steps = max(1000, int(1.6e9 / particles / 10))
     p = subprocess.run([str(probe), "--rounds", str(rounds), "--particles", str(particles), "--steps", str(steps)],
                        capture_output=True, text=True)
     if p.returncode != 0:
