@@ -46,6 +46,17 @@ using Clock = std::chrono::steady_clock;
 // sweeps there changed nothing (docs/speed_accuracy.md, stop 27).
 constexpr std::size_t kGap = 128;
 
+// One step's work on particles [a, e) of the columns c.
+inline void work(const std::vector<double*>& c, std::size_t a, std::size_t e) {
+  for (std::size_t i = a; i < e; ++i) {
+    const double x = c[0][i] * 0.5 + c[1][i];
+    c[2][i] += x * c[3][i];
+    c[4][i] = c[5][i] + c[2][i] * 1e-3;
+    c[6][i] += c[7][i] * c[8][i];
+    c[9][i] = x;
+  }
+}
+
 // Microseconds per step of `threads` threads, each on its own share of n
 // particles (kGap apart); a barrier per step if `meet`.
 double stream(std::size_t n, long steps, int threads, bool meet) {
@@ -60,13 +71,7 @@ double stream(std::size_t n, long steps, int threads, bool meet) {
     const auto [share_lo, share_hi] = granular::thread_block(n, threads, t);
     const std::size_t gap = kGap * static_cast<std::size_t>(t), lo = share_lo + gap, hi = share_hi + gap;
     for (long s = 0; s < steps; ++s) {
-      for (std::size_t i = lo; i < hi; ++i) {
-        const double a = c[0][i] * 0.5 + c[1][i];
-        c[2][i] += a * c[3][i];
-        c[4][i] = c[5][i] + c[2][i] * 1e-3;
-        c[6][i] += c[7][i] * c[8][i];
-        c[9][i] = a;
-      }
+      work(c, lo, hi);
       if (meet) {
 #pragma omp barrier
       }
@@ -107,19 +112,10 @@ double halo(std::size_t n, long steps, std::size_t out, std::size_t back) {
     const std::size_t gap = kGap * static_cast<std::size_t>(t), lo = share_lo + gap, hi = share_hi + gap;
     const std::size_t mid = lo + (hi - lo) / 2;
     double carry = 0.0;
-    const auto pass = [&](std::size_t a, std::size_t e) {
-      for (std::size_t i = a; i < e; ++i) {
-        const double x = c[0][i] * 0.5 + c[1][i];
-        c[2][i] += x * c[3][i];
-        c[4][i] = c[5][i] + c[2][i] * 1e-3;
-        c[6][i] += c[7][i] * c[8][i];
-        c[9][i] = x;
-      }
-    };
     for (long s = 1; s <= steps; ++s) {
       if (t == 1)
         for (std::size_t k = 0; k < out * kLine; ++k) h_out[k] = carry + static_cast<double>(k);
-      pass(lo, mid);
+      work(c, lo, mid);
       flag[t].seq.store(s, std::memory_order_release);
       flag[t].bell.ring();
       flag[u].bell.wait_until([&] { return flag[u].seq.load(std::memory_order_acquire) >= s; });
@@ -128,7 +124,7 @@ double halo(std::size_t n, long steps, std::size_t out, std::size_t back) {
         for (std::size_t k = 0; k < out * kLine; ++k) sum += h_out[k];
         for (std::size_t k = 0; k < back * kLine; ++k) h_back[k] = sum + static_cast<double>(k);
       }
-      pass(mid, hi);
+      work(c, mid, hi);
       flag[t].met.store(s, std::memory_order_release);
       flag[t].bell.ring();
       flag[u].bell.wait_until([&] { return flag[u].met.load(std::memory_order_acquire) >= s; });
