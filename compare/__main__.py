@@ -4,6 +4,7 @@
     python3 -m compare observe OUT.h5 --json            every observable as JSON
     python3 -m compare plot OUT.h5 -o DIR               every figure
     python3 -m compare table1 RUN_DIR -o docs/table1.md  the Table I reproduction
+    python3 -m compare campaign-status DIR              how far a Table I campaign has got
     python3 -m compare onset RUN.h5... [--within S]     shaken box: onset frequency over packings
     python3 -m compare bench [-o DIR] [--rounds N]      native against LAMMPS, interleaved, with ratios
     python3 -m compare speed-accuracy -o DIR            binary-collision error against cost, per method
@@ -80,6 +81,8 @@ def main(argv=None):
     on = sub.add_parser("onset", help="shaken box: rising fraction per frequency and the onset frequency")
     on.add_argument("runs", nargs="+", help="box runs with a big disk, one packing each")
     on.add_argument("--within", type=float, default=None, help="seconds of shaking allowed to reach the top")
+    cs = sub.add_parser("campaign-status", help="how far each run of a Table I campaign has got")
+    cs.add_argument("campaign_dir", help="the directory scripts/table1_campaign.sh runs in")
     tb = sub.add_parser("table1", help="docs/table1.md from a directory of Table I runs")
     tb.add_argument("run_dir")
     tb.add_argument("-o", "--output", default="docs/table1.md")
@@ -182,6 +185,11 @@ def main(argv=None):
         except (OSError, ValueError) as exc:
             print(f"onset: error: {exc}", file=sys.stderr)
             return 2
+        return 0
+
+    if args.command == "campaign-status":
+        from .table1 import campaign_status
+        print(campaign_status(args.campaign_dir))
         return 0
 
     if args.command == "table1":

@@ -133,3 +133,35 @@ def table1(run_dir, out_md, fig_dir, notes=None):
         lines += ["", notes.read_text().rstrip()]
     out_md.write_text("\n".join(lines) + "\n")
     return out_md
+
+
+def campaign_status(campaign_dir):
+    """One line per Table I run of a campaign directory (scripts/table1_campaign.sh):
+    rotations reached against requested, and whether it finished, runs or failed."""
+    import json
+
+    from .reader import open_h5
+
+    os.environ.setdefault("HDF5_USE_FILE_LOCKING", "FALSE")
+    runs = Path(campaign_dir) / "runs"
+    lines = [f"{'run':4} {'reached':>9} {'of':>7}  state"]
+    for rid in IDS:
+        path = runs / f"{rid}.h5"
+        if not path.exists():
+            lines.append(f"{rid:4} {'-':>9} {'-':>7}  waiting")
+            continue
+        try:
+            with open_h5(path) as h5:
+                scene = json.loads(h5.attrs["scene_json"])
+                period = float(h5.attrs["rotation_period"])
+                t = h5["profile/time"]
+                reached = float(t[t.shape[0] - 1]) / period if t.shape[0] else 0.0
+        except (OSError, KeyError, ValueError) as exc:
+            lines.append(f"{rid:4} {'?':>9} {'?':>7}  unreadable ({exc})")
+            continue
+        log = path.with_suffix(".log")
+        text = log.read_text(errors="replace") if log.exists() else ""
+        state = ("done" if (runs / f"{rid}.h5.done").exists()
+                 else "failed" if "unstable" in text or "error" in text else "running or stopped")
+        lines.append(f"{rid:4} {reached:9.1f} {scene['run']['rotations']:7g}  {state}")
+    return "\n".join(lines)

@@ -33,6 +33,7 @@
 #include "engine/run_control.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
+#include "scene/step_rule.hpp"
 #include "version.hpp"
 
 using namespace granular;
@@ -90,6 +91,19 @@ std::vector<long> species_counts(const ParticleStore<Dim>& p) {
   return c;
 }
 
+// The step the scene runs at, and the rule's default beside it (scene/step_rule.hpp).
+nlohmann::json step_json(const StepRule& r, double dt) {
+  nlohmann::json j{{"dt", dt},
+                   {"default", r.dt},
+                   {"binding", r.binding},
+                   {"accuracy_step", r.accuracy_step},
+                   {"contact_time", r.contact_time},
+                   {"steps_per_contact_required", r.steps_per_contact},
+                   {"steps_per_contact", r.contact_time / dt}};
+  if (r.impact_speed > 0) j["impact_speed"] = r.impact_speed;
+  return j;
+}
+
 nlohmann::json info_json(const Loaded& l) {
   auto j = nlohmann::json::parse(l.json);
   nlohmann::json d;
@@ -104,6 +118,7 @@ nlohmann::json info_json(const Loaded& l) {
       d["paper_particles"] = s.paper_n;
       d["particles_vs_paper_percent"] = 100.0 * (static_cast<double>(p.size()) / s.paper_n - 1.0);
     }
+    d["time_step"] = step_json(drum_step_rule(s), s.dt);
     d["rotation_period"] = s.rotation_period();
     d["steps_per_rotation"] = s.rotation_period() / s.dt;
     d["steps_total"] = s.steps_per(s.rotations);
@@ -171,6 +186,7 @@ nlohmann::json info_json(const Loaded& l) {
     const double w = 2.0 * M_PI * s.frequency;
     d["peak_acceleration_over_g"] = s.gravity > 0 ? s.amplitude * w * w / s.gravity : 0.0;  // Gamma
     d["steps_total"] = std::lround((s.settle + s.duration) / s.dt);
+    d["time_step"] = step_json(box_step_rule(s), s.dt);
   }
   j["derived"] = d;
   return j;

@@ -13,6 +13,7 @@
 #include "engine/health.hpp"
 #include "engine/run_control.hpp"
 #include "scene/law_mapping.hpp"
+#include "scene/step_rule.hpp"
 
 namespace granular {
 
@@ -124,6 +125,12 @@ HealthLimits drum_health(const DrumScene& s) {
     for (int k = 0; k < 3; ++k) t = std::min(t, (rapaport ? m.pair_collision[k] : m.pair_linear[k]).contact_time);
     for (int a = 0; a < 2; ++a) t = std::min(t, (rapaport ? m.wall_collision[a] : m.wall_linear[a]).contact_time);
     h.contact_period = t;
+    if (rapaport) {
+      const StepRule r = drum_step_rule(s);
+      h.impact_speed = r.impact_speed;
+      h.impact_contact = r.contact_time;
+      h.impact_steps_needed = r.steps_per_contact;
+    }
   } catch (const MappingError&) {
     h.contact_period = 0.0;  // overdamped: no period to quote
   }

@@ -36,6 +36,9 @@ struct HealthLimits {
   double max_overlap = 0.4;    // as a fraction of the contact distance Law::range(d_i, d_j)
   double dt = 0.0;
   double contact_period = 0.0;  // shortest binary contact of the scene (0: unknown)
+  // Rapaport's law: the contact at the fastest impact the scene can produce,
+  // which sets the default step (scene/step_rule.hpp; 0: not used).
+  double impact_speed = 0.0, impact_contact = 0.0, impact_steps_needed = 0.0;
 
   // "integrator.dt = 0.005 is 1/23 of the shortest contact period (0.115)..."
   std::string dt_hint() const {
@@ -45,6 +48,13 @@ struct HealthLimits {
       os << "integrator.dt = " << dt << " is 1/" << std::setprecision(ratio < 10 ? 2 : 4) << ratio
          << std::setprecision(6) << " of the shortest contact period (" << contact_period
          << "); runs stay accurate below about 1/20";
+      if (impact_contact > 0) {
+        const double k = impact_contact / dt;
+        os << ", and 1/" << std::setprecision(k < 10 ? 2 : 4) << k << std::setprecision(6)
+           << " of the contact at the fastest impact the scene can produce (" << impact_contact << " at speed "
+           << impact_speed << "), which needs at least 1/" << impact_steps_needed
+           << " (the default step keeps that)";
+      }
     } else {
       os << "integrator.dt = " << dt;
     }

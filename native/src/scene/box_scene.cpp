@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "integrate/motion.hpp"
+#include "scene/step_rule.hpp"
 
 namespace granular {
 
@@ -83,11 +84,12 @@ BoxScene read_fields(SceneFile& f) {
 
   // Default: velocity Verlet at 2e-4 s, the cheapest setting that keeps the
   // convection, the bed, the big disk's rise and the onset frequency within
-  // their tolerances (docs/speed_accuracy.md, "Defaults"). The paper's method,
-  // its 5th-order Gear predictor-corrector at 5e-5 s, is
+  // their tolerances (docs/speed_accuracy.md, "Defaults"), or shorter where the
+  // scene's contacts are (scene/step_rule.hpp). The paper's method, its
+  // 5th-order Gear predictor-corrector at 5e-5 s, is
   // --set integrator.kind="gear" --set integrator.dt=5e-5.
   s.gear = f.choice("integrator.kind", {"gear", "verlet"}, "verlet") == "gear";
-  s.dt = f.positive("integrator.dt", f.number("integrator.dt", 2e-4));
+  s.dt = f.positive("integrator.dt", f.number("integrator.dt", box_step_rule(s).dt));
   // The skin changes no force, only the cost (the list is exact at any skin).
   // 1.0 cm measured fastest, 11 % over 0.5 cm on 1 and 2 threads, once the
   // grains' cells no longer follow the big disk (docs/speed_accuracy.md,
@@ -126,6 +128,10 @@ BoxScene read_fields(SceneFile& f) {
   if ((s.settle + s.duration) / s.dt > kMaxSteps)
     f.fail("run.duration", "would take " + number_text((s.settle + s.duration) / s.dt) + " steps (integrator.dt " +
                                number_text(s.dt) + "), more than " + number_text(kMaxSteps));
+  if (std::lround((s.settle + s.duration) / s.dt) < 1)
+    f.fail("run.duration", "the run (run.settle " + number_text(s.settle) + " s + run.duration " +
+                               number_text(s.duration) + " s) rounds to 0 steps of integrator.dt " + number_text(s.dt) +
+                               " s: nothing would be simulated");
   return s;
 }
 

@@ -1,6 +1,7 @@
 #include "scene/drum_scene.hpp"
 
 #include "scene/law_mapping.hpp"
+#include "scene/step_rule.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -119,10 +120,11 @@ DrumScene read_fields(SceneFile& f) {
   s.gravity = f.non_negative("gravity.g", f.number("gravity.g", 5.0));
 
   s.integrator = f.choice("integrator.kind", {"leapfrog"}, "leapfrog");
-  // Default step 0.01, twice the paper's 0.005: the cheapest step that keeps the
+  // Default step: 0.01, twice the paper's 0.005, the cheapest step that keeps the
   // slope, the band count and the band formation time within their tolerances
-  // (docs/speed_accuracy.md, "Defaults"); the paper's step is --set integrator.dt=0.005.
-  s.dt = f.positive("integrator.dt", f.number("integrator.dt", 0.01));
+  // (docs/speed_accuracy.md, "Defaults"), or shorter where the scene's fastest
+  // impact needs it (scene/step_rule.hpp); the paper's step is --set integrator.dt=0.005.
+  s.dt = f.positive("integrator.dt", f.number("integrator.dt", drum_step_rule(s).dt));
   s.skin = f.positive("neighbor.skin", f.number("neighbor.skin", 0.4));
 
   s.rotations = f.positive("run.rotations", f.number("run.rotations"));
@@ -151,6 +153,11 @@ DrumScene read_fields(SceneFile& f) {
   if (s.rotations * s.rotation_period() / s.dt > kMaxSteps)
     f.fail("run.rotations", "would take " + number_text(s.rotations * s.rotation_period() / s.dt) +
                                 " steps (integrator.dt " + number_text(s.dt) + "), more than " + number_text(kMaxSteps));
+  if (s.steps_per(s.rotations) < 1)
+    f.fail("run.rotations", number_text(s.rotations) + " rotation(s) at drum.omega = " + number_text(s.omega) + " (" +
+                                f.origin("drum.omega") + ") last " + number_text(s.rotations * s.rotation_period()) +
+                                " time units, which round to 0 steps of integrator.dt " + number_text(s.dt) +
+                                ": nothing would be simulated");
   check_fits(f, s);  // builds the particles
   if (s.law != "rapaport") {
     try {

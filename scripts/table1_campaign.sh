@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# The full-length Table I campaign: all 24 runs of Rapaport (2002), Table I, at
+# the paper's rotation counts, from the shipped scenes at their default steps
+# (docs/table1.md), one run per core, restartable.
+#
+#   scripts/table1_campaign.sh [DIR] [LANES]      start, or resume after any interruption
+#   scripts/table1_campaign.sh --status [DIR]     how far each run has got
+#
+# DIR (default /var/lib/granular/table1) holds everything: the engine and scenes
+# of the commit the campaign started from (DIR/COMMIT, DIR/src, DIR/engine), the
+# job list and the runs (DIR/runs/X.h5, X.log, X.h5.ckpt, X.h5.done). Rebuilding
+# or changing the working tree does not disturb a campaign; a new commit's
+# campaign needs a new DIR. The runs go in order of cost, the 19 smaller first;
+# each checkpoints every 5 minutes and resumes from its checkpoint
+# (scripts/campaign.sh). Output at the paper's cadence: the axial profile every
+# rotation, a snapshot every 1/40 of the run.
+set -euo pipefail
+here="$(cd "$(dirname "$0")/.." && pwd)"
+status=0
+if [ "${1:-}" = "--status" ]; then status=1; shift; fi
+dir="${1:-/var/lib/granular/table1}"
+lanes="${2:-2}"
+
+if ((status)); then
+  [ -e "$dir/COMMIT" ] || { echo "no campaign in $dir" >&2; exit 2; }
+  echo "campaign in $dir, commit $(cat "$dir/COMMIT")"
+  exec /usr/bin/python3 -m compare campaign-status "$dir"
+fi
+
+mkdir -p "$dir/runs"
+if [ ! -x "$dir/engine/granular" ]; then
+  cd "$here"
+  if ! git diff --quiet HEAD -- native scenes CMakeLists.txt; then
+    echo "table1_campaign: native/, scenes/ or CMakeLists.txt differ from HEAD; commit first, so the" \
+         "campaign's commit is the code it runs" >&2
+    exit 2
+  fi
+  commit="$(git rev-parse HEAD)"
+  rm -rf "$dir/src" "$dir/engine-build"
+  mkdir -p "$dir/src" "$dir/engine"
+  git archive "$commit" | tar -x -C "$dir/src"
+  cmake -S "$dir/src" -B "$dir/engine-build" -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE=/usr/bin/python3 >/dev/null
+  cmake --build "$dir/engine-build" -j"$lanes" --target granular >/dev/null
+  cp "$dir/engine-build/granular" "$dir/engine/granular"
+  echo "$commit" >"$dir/COMMIT"
+fi
+
+# One job per Table I run, cheapest first (particle-steps at the default step).
+jobs="$dir/jobs.txt"
+if [ ! -e "$jobs" ]; then
+  for scene in "$dir"/src/scenes/drum/*.toml; do
+    "$dir/engine/granular" info "$scene" --json | /usr/bin/python3 -c '
+import json, sys
+j = json.load(sys.stdin)
+d, rot = j["derived"], j["run"]["rotations"]
+snap = max(10, round(rot / 40 / 10) * 10)
+print(d["particles"] * d["steps_total"], sys.argv[1], sys.argv[2], rot, snap)' "$dir/runs/$(basename "$scene" .toml).h5" "$scene"
+  done | sort -g | while read -r _ out scene rot snap; do
+    echo "$out $scene --set run.rotations=$rot --set run.snapshot_every=$snap --set run.profile_every=1 --checkpoint-every 5"
+  done >"$jobs"
+fi
+
+GRANULAR_BIN="$dir/engine/granular" exec "$here/scripts/campaign.sh" "$jobs" "$lanes"
