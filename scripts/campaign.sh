@@ -6,10 +6,12 @@
 # restarted; a job interrupted after its first checkpoint (OUTPUT.h5.ckpt)
 # continues from it (--resume), any other leftover is started again (--force).
 # Each job writes OUTPUT.log beside its output. The engine is $GRANULAR_BIN, or
-# build/granular (scripts/table1_campaign.sh pins one built from a fixed commit).
+# build/granular (scripts/table1_campaign.sh pins one built from a fixed commit),
+# at niceness $CAMPAIGN_NICE (default 19).
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${GRANULAR_BIN:-$here/build/granular}"
+niceness="${CAMPAIGN_NICE:-19}"  # yields the cores to interactive work
 jobs="$1"; lanes="${2:-2}"
 run_one() {
   out="$1"; shift; scene="$1"; shift
@@ -17,11 +19,11 @@ run_one() {
   mkdir -p "$(dirname "$out")"
   mode=--force
   [ -e "$out" ] && [ -e "$out.ckpt" ] && mode=--resume
-  if nice -n 19 "$bin" run "$scene" -o "$out" $mode --threads 1 -q "$@" >>"${out%.h5}.log" 2>&1; then
+  if nice -n "$niceness" "$bin" run "$scene" -o "$out" $mode --threads 1 -q "$@" >>"${out%.h5}.log" 2>&1; then
     touch "$out.done"
   else
     echo "failed: $out (see ${out%.h5}.log)" >&2
   fi
 }
-export -f run_one; export here bin
+export -f run_one; export here bin niceness
 grep -v '^\s*#' "$jobs" | grep -v '^\s*$' | xargs -P "$lanes" -L 1 bash -c 'run_one "$@"' _
