@@ -274,3 +274,44 @@ class BandFormation(Result):
         ax.set_ylabel("segregation order parameter R")
         ax.legend(fontsize="small")
         return ax
+
+
+def lasting_count(t, counts, window):
+    """The band count that lasts: the most common count in a centred window of
+    ``window`` rotations around each sample (a count that flickers for a few
+    samples, as a band crosses the detection threshold, does not move it)."""
+    t, counts = np.asarray(t, float), np.asarray(counts, int)
+    lo = np.searchsorted(t, t - 0.5 * window, side="left")
+    hi = np.searchsorted(t, t + 0.5 * window, side="right")
+    width = int(counts.max()) + 1 if counts.size else 1
+    return np.array([np.bincount(counts[a:b], minlength=width).argmax() for a, b in zip(lo, hi)], dtype=int)
+
+
+def band_events(t, counts, window=50.0):
+    """Merging and splitting events: changes of the lasting count (above) whose
+    new value holds for at least ``window`` rotations. Returns a list of
+    {"rotation", "from", "to", "kind"} with kind "merge" (fewer bands), "split"
+    (more), "formation" (from none) or "mixing" (to none), at the first sample
+    of the new value."""
+    t = np.asarray(t, float)
+    if t.size == 0:
+        return []
+    lasting = lasting_count(t, counts, window)
+    # runs of equal lasting count: (start index, end index exclusive, value)
+    cut = np.nonzero(np.diff(lasting))[0] + 1
+    starts, ends = np.concatenate([[0], cut]), np.concatenate([cut, [t.size]])
+    runs = [(s, e, int(lasting[s])) for s, e in zip(starts, ends)]
+    # a run shorter than the window is a passing state: it extends the state before it
+    kept = []
+    for s, e, v in runs:
+        duration = (t[e] if e < t.size else t[-1]) - t[s]
+        if kept and (v == kept[-1][2] or duration < window):
+            kept[-1] = (kept[-1][0], e, kept[-1][2])
+        else:
+            kept.append((s, e, v))
+    events = []
+    for (_, _, a), (s, _, b) in zip(kept, kept[1:]):
+        if a != b:
+            kind = "formation" if a == 0 else "mixing" if b == 0 else "merge" if b < a else "split"
+            events.append({"rotation": float(t[s]), "from": a, "to": b, "kind": kind})
+    return events

@@ -9,8 +9,11 @@ are appended.
 """
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
+
+import numpy as np
 
 from .observe import analyse
 from .reader import read_run
@@ -33,17 +36,173 @@ def _fmt(x, spec=".0f"):
     return "–" if x is None else format(x, spec)
 
 
-def table1(run_dir, out_md, fig_dir, notes=None):
+TOLERANCE_BANDS = 2  # one band pair: docs/tolerances.md, "Drum band count"
+EVENT_WINDOW = 50.0  # rotations a new band count must hold to count as an event
+
+
+def parse_paper_bands(text):
+    """Table I's "Bands" column: "8->6" -> (8, 6), "8" -> (8, 8), "none" -> (0, 0)."""
+    if text in ("", None):
+        return None
+    if text == "none":
+        return 0, 0
+    a, _, b = text.partition("->")
+    return int(a), int(b or a)
+
+
+def verdict(paper, early, final, events, done):
+    """agree / disagree / open, with the reason, for Table I's x->y against ours.
+    Counts agree within TOLERANCE_BANDS (the paper's runs are single
+    realisations); a change x->y needs a lasting change in the same direction."""
+    if not done:
+        return "open", "the run has not reached the paper's length"
+    if paper is None:
+        return "open", "no band count in Table I"
+    x, y = paper
+    if (y > 0) != (final > 0):
+        return "disagree", f"{'segregated' if y else 'mixed'} in the paper, {'segregated' if final else 'mixed'} here"
+    if abs(final - y) > TOLERANCE_BANDS:
+        return "disagree", f"final count {final} against the paper's {y} (tolerance {TOLERANCE_BANDS})"
+    if x != y:
+        want = "merge" if y < x else "split"
+        if not any(e["kind"] == want for e in events):
+            return "disagree", f"the paper's {x}->{y} needs a lasting {want}; none here"
+    if early is not None and abs(early - x) > TOLERANCE_BANDS and x > 0:
+        return "agree", f"final count agrees; the early count {early} differs from the paper's {x}"
+    return "agree", "counts within one band pair"
+
+
+def run_summary(rid, run, obs, done, commit=None):
+    """One Table I run as a JSON-ready dict (docs/table1.json)."""
+    from .bands import band_events
+    sc = run.scene
+    paper = sc.get("paper", {})
+    b, t = obs["bands"], obs["bands"].time_rotations
+    counts = b.counts
+    events = band_events(t, counts, EVENT_WINDOW)
+    early50 = None
+    sel = counts[(t >= 25) & (t <= 50)]
+    if sel.size:
+        early50 = int(np.bincount(sel).argmax())
+    pb = parse_paper_bands(paper.get("bands", ""))
+    surf = obs.get("surface")
+    slope = None
+    if surf is not None:
+        try:
+            slope = float(surf.slope_angle_deg)
+        except (KeyError, TypeError, ValueError):
+            slope = None
+    v, why = verdict(pb, b.early, b.final or 0, events, done)
+    return {"run": rid, "commit": commit, "done": done,
+            "rotations_requested": sc.get("run", {}).get("rotations", paper.get("rotations")),
+            "rotations_reached": float(t[-1]) if t.size else 0.0,
+            "dt": sc.get("integrator", {}).get("dt"), "particles": int(run.frames.n_particles),
+            "paper": {"bands": paper.get("bands", ""), "rotations": paper.get("rotations"), "N": paper.get("N"),
+                      "figure": paper.get("figure", "")},
+            "bands_first_50": early50, "bands_early": b.early, "bands_final": b.final,
+            "events": events, "formation_rotations": obs["formation"].formation_time,
+            "slope_deg": slope, "verdict": v, "reason": why}
+
+
+def plot_band_count(ax, summary, t, counts):
+    from .bands import lasting_count
+    ax.step(t, counts, where="post", color="0.75", lw=0.5, label="count")
+    ax.step(t, lasting_count(t, counts, EVENT_WINDOW), where="post", color="k", lw=1.2,
+            label=f"lasting ({EVENT_WINDOW:g}-rotation mode)")
+    for e in summary["events"]:
+        ax.axvline(e["rotation"], color="tab:red" if e["kind"] == "merge" else "tab:blue", lw=0.8, ls="--")
+    pb = parse_paper_bands(summary["paper"]["bands"])
+    if pb:
+        ax.axhline(pb[1], color="tab:green", lw=0.8, ls=":", label=f"paper's final {pb[1]}")
+    ax.set_xlabel("rotations")
+    ax.set_ylabel("bands")
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=6, loc="upper right")
+
+
+def _events_text(events):
+    return ", ".join(f"{e['from']}→{e['to']} at {e['rotation']:.0f}" for e in events) or "–"
+
+
+def section_v_lines(summaries):
+    """Section V's claims, one row each, from the runs present (compare/sectionv.py)."""
+    by = {r["run"]: r for r in summaries}
+
+    def f(x, spec=".1f"):
+        return "–" if x is None else format(x, spec)
+
+    def state(r):
+        return f"{r['rotations_reached']:.0f} of {r['rotations_requested']:g} rotations" + \
+            ("" if r["done"] else " (running)")
+
+    rows = []
+    for rid in "VX":
+        if rid in by and by[rid].get("section_v"):
+            v = by[rid]["section_v"]
+            rows.append(f"| #{rid}: \"no hint of mixing\" | interface width {f(v['interface_width_first_tenth'])} → "
+                        f"{f(v['interface_width_last_tenth'])} (first → last tenth of the run); mixed from "
+                        f"{f(v.get('mixing_time'), '.0f')} | {state(by[rid])} |")
+    if by.get("W", {}).get("section_v"):
+        v = by["W"]["section_v"]
+        rows.append(f"| #W: the initial bands vanish as the species mix | order parameter below threshold from "
+                    f"rotation {f(v.get('mixing_time'), '.0f')}; interface width {f(v['interface_width_first_tenth'])} → "
+                    f"{f(v['interface_width_last_tenth'])} | {state(by['W'])} |")
+    if by.get("Y", {}).get("section_v"):
+        r = by["Y"]
+        v = r["section_v"]
+        ev = ", ".join(f"{e['kind']} {e['from']}→{e['to']} at {e['rotation']:.0f}" for e in r["events"]) or "none"
+        sp = v["band_speed_median"]
+        rows.append(f"| #Y: bands emerge and vanish; the regions exchange; band speed about 0.01 d per rotation "
+                    f"| events: {ev}; profile correlation with the start reaches {f(v.get('exchange_min'), '.2f')}"
+                    f"{' (exchanged from rotation ' + f(v.get('exchanged_at'), '.0f') + ')' if v.get('exchanged_at') else ''}; "
+                    f"band speed {f(sp, '.4f')} d per rotation ({v['band_speed_tracks']} boundaries followed) "
+                    f"| {state(r)} |")
+    capped = [r for r in summaries if "ends_last_tenth" in r.get("section_v", {})]
+    if capped:
+        cells = "; ".join(f"#{r['run']} {r['bands_final']} bands, ends {'/'.join(r['section_v']['ends_last_tenth'])}"
+                          for r in capped)
+        rows.append(f"| capped runs: odd band counts, the rougher big particles at both ends | {cells} | "
+                    f"{', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in capped)} |")
+    blur = [r for r in summaries if r["run"] in "APQ" and r.get("section_v")]
+    if len(blur) > 1:
+        cells = "; ".join(f"#{r['run']} {r['section_v']['contrast_last_tenth']:.3f}" for r in blur)
+        rows.append(f"| #P, #Q (fuller drums) blur: less contrast than #A | band contrast over the last tenth: "
+                    f"{cells} | {', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in blur)} |")
+    if not rows:
+        return []
+    return ["", "## Section V's claims over the runs", "",
+            "Measures of compare/sectionv.py (docs/observables.md, \"Long runs\").", "",
+            "| claim | ours | runs |", "|---|---|---|"] + rows
+
+
+def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
     os.environ.setdefault("HDF5_USE_FILE_LOCKING", "FALSE")  # read runs still being written
     from matplotlib.figure import Figure
 
     run_dir, out_md, fig_dir = Path(run_dir), Path(out_md), Path(fig_dir)
     fig_dir.mkdir(parents=True, exist_ok=True)
-    rows, figs, rule_rows, missing = [], [], [], []
+    rows, figs, rule_rows, missing, summaries = [], [], [], [], []
+    if commit is None and (run_dir.parent / "COMMIT").exists():
+        commit = (run_dir.parent / "COMMIT").read_text().strip()
     for rid in IDS:
         path = run_dir / f"{rid}.h5"
         if not path.exists():
             missing.append(rid)
+            scene_file = Path(__file__).resolve().parents[1] / "scenes" / "drum" / f"{rid}.toml"
+            if scene_file.exists():
+                import tomllib
+                sc = tomllib.loads(scene_file.read_text())
+                paper = sc.get("paper", {})
+                summaries.append({"run": rid, "commit": commit, "done": False,
+                                  "rotations_requested": sc["run"]["rotations"], "rotations_reached": 0.0,
+                                  "paper": {k: paper.get(k) for k in ("bands", "rotations", "N", "figure")},
+                                  "verdict": "open", "reason": "not started", "events": [], "section_v": {}})
+                rows.append(f"| {rid} | {sc['drum']['length']:g} | {sc['drum']['diameter']:g} | "
+                            f"{sc['particles']['fill_density']:g} | {sc['particles']['big_diameter']:g} | "
+                            f"{sc['drum']['omega']:g} | {sc['drum']['ends'][0].upper()} | "
+                            f"{'M' if sc['particles']['initial_state'] == 'mixed' else 'S'} | – | "
+                            f"{paper.get('N', '–')} | – | {paper.get('rotations', 0):g} | 0 | "
+                            f"{paper.get('bands') or '–'} | – | – | – | – | – | open: not started |")
             continue
         run = read_run(path)
         obs = analyse(run)
@@ -55,6 +214,10 @@ def table1(run_dir, out_md, fig_dir, notes=None):
         paper_seg = paper_bands not in ("", "none")
         ours_seg = _segregated(obs)
         b = obs["bands"]
+        summary = run_summary(rid, run, obs, done, commit)
+        from .sectionv import section_v
+        summary["section_v"] = section_v(run, obs)
+        summaries.append(summary)
         rows.append(
             f"| {rid} | {drum['length']:g} | {drum['diameter']:g} | {parts['fill_density']:g} | "
             f"{parts['big_diameter']:g} | {drum['omega']:g} | {drum['ends'][0].upper()} | "
@@ -63,7 +226,8 @@ def table1(run_dir, out_md, fig_dir, notes=None):
             f"{paper.get('N', '–')} | {run.frames.n_particles} | {paper.get('rotations', 0):g} | "
             f"{t[-1]:.0f}{'' if done else ' (running)'} | {paper_bands or '–'} | {_fmt(b.early, 'd')}→{_fmt(b.final, 'd')} | "
             f"{_fmt(obs['formation'].formation_time)} | {'yes' if paper_seg else 'no'} / {'yes' if ours_seg else 'no'} | "
-            f"{'✓' if paper_seg == ours_seg else '✗'} |")
+            f"{'✓' if paper_seg == ours_seg else '✗'} | {_events_text(summary['events'])} | "
+            f"{summary['verdict']}: {summary['reason']} |")
         if parts["initial_state"] == "mixed" and drum["ends"] == "periodic" and drum["length"] == 128 \
                 and parts["fill_density"] == 0.3:
             rule_rows.append(f"| {rid} | {fr['gamma_s_bb']:g} | {fr['gamma_s_ss']:g} | {fr['gamma_s_bw']:g} | "
@@ -71,8 +235,10 @@ def table1(run_dir, out_md, fig_dir, notes=None):
                              f"{'yes' if paper_rule(fr) else 'no'} | {'yes' if paper_seg else 'no'} | "
                              f"{'yes' if ours_seg else 'no'} | "
                              f"{'✓' if paper_rule(fr) == ours_seg else '✗'} |")
-        fig = Figure(figsize=(7, 2.6), layout="constrained")
-        ax = obs["spacetime"].plot(fig.add_subplot())
+        fig = Figure(figsize=(7, 3.8), layout="constrained")
+        top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(2.6, 1.2))
+        ax = obs["spacetime"].plot(top)
+        plot_band_count(bottom, summary, b.time_rotations, b.counts)
         ax.set_title(f"#{rid}: {t[-1]:.0f} rotations, bands {_fmt(b.early, 'd')}→{_fmt(b.final, 'd')} "
                      f"(paper {paper_bands or 'none'} over {paper.get('rotations', 0):g})", fontsize=9)
         out = fig_dir / f"{rid}_spacetime.png"
@@ -109,8 +275,9 @@ def table1(run_dir, out_md, fig_dir, notes=None):
              "The runs were made at the paper's step δt = 0.005; the engine's default is 0.01 since 2026-11-22 "
              "(docs/speed_accuracy.md, \"Defaults\"), so reproducing them takes `--set integrator.dt=0.005`.", "",
              "| run | L | D | ρ | b | Ω | ends | init | γ_s | N paper | N ours | rotations paper | rotations ours "
-             "| bands paper | bands ours | formation | segregated paper / ours | agree |",
-             "|" + "---|" * 18]
+             "| bands paper | bands ours | formation | segregated paper / ours | agree | events (lasting "
+             f"{EVENT_WINDOW:g} rotations) | paper's x→y |",
+             "|" + "---|" * 20]
     lines += rows
     if missing:
         lines += ["", f"Not run yet: {', '.join('#' + m for m in missing)}."]
@@ -119,6 +286,7 @@ def table1(run_dir, out_md, fig_dir, notes=None):
               "when γ_s^bb > γ_s^ss; none when γ_s^bw < γ_s^sw.", "",
               "| run | γ_s^bb | γ_s^ss | γ_s^bw | γ_s^sw | b | rule predicts | Table I | ours | ours vs rule |",
               "|---|---|---|---|---|---|---|---|---|---|"] + rule_rows
+    lines += section_v_lines(summaries)
     if surf_rows:
         lines += ["", "## Free-surface slope (Fig. 9)", "",
                   "Short periodic sections of the #J/#K cylinder (D = 24); the slope is an axial average. "
@@ -132,6 +300,9 @@ def table1(run_dir, out_md, fig_dir, notes=None):
     if notes.exists():
         lines += ["", notes.read_text().rstrip()]
     out_md.write_text("\n".join(lines) + "\n")
+    out_json = Path(out_json) if out_json else out_md.with_suffix(".json")
+    out_json.write_text(json.dumps({"runs": summaries, "tolerance_bands": TOLERANCE_BANDS,
+                                    "event_window_rotations": EVENT_WINDOW}, indent=1, default=float) + "\n")
     return out_md
 
 

@@ -123,3 +123,30 @@ def test_a_sparse_end_slice_does_not_erase_the_end_band():
     assert count_bands(sm, 0.15, 3, periodic=False) == 3
     # without the weights the spike pulls the band's end up to the mean and beyond
     assert smooth(dev, 2.0, periodic=False)[127] > 0.0
+
+
+def test_band_events_on_a_known_history():
+    """A count of 8 from rotation 20, merging to 6 at rotation 1000, with 5 %
+    of samples flickering by a pair and a 20-rotation excursion to 4: one
+    formation and one merge, at the right rotations; the flicker and the
+    short excursion are not events."""
+    from compare.bands import band_events, lasting_count
+    t = np.arange(0.0, 3000.0)
+    rng = np.random.default_rng(1)
+    c = np.where(t < 20, 0, np.where(t < 1000, 8, 6))
+    c = np.clip(c + np.where(rng.random(t.size) < 0.05, rng.choice([-2, 2], t.size), 0), 0, None)
+    c[1500:1520] = 4
+    ev = band_events(t, c, window=50.0)
+    assert [(e["kind"], e["from"], e["to"]) for e in ev] == [("formation", 0, 8), ("merge", 8, 6)]
+    assert abs(ev[0]["rotation"] - 20) <= 25 and abs(ev[1]["rotation"] - 1000) <= 25
+    assert lasting_count(t, c, 50.0)[1510] == 6
+
+
+def test_band_events_split_and_mixing():
+    from compare.bands import band_events
+    t = np.arange(0.0, 1000.0)
+    c = np.where(t < 300, 2, np.where(t < 700, 4, 0))
+    kinds = [(e["kind"], e["rotation"]) for e in band_events(t, c, window=50.0)]
+    assert [k for k, _ in kinds] == ["split", "mixing"]
+    assert abs(kinds[0][1] - 300) <= 25 and abs(kinds[1][1] - 700) <= 25
+    assert band_events(t[:0], c[:0]) == []

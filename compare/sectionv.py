@@ -1,0 +1,155 @@
+"""Section V of Rapaport (2002): the qualitative claims about long runs, each
+as a number computed from the axial profile (docs/observables.md, "Long runs").
+
+- interface width over time (#V, #X: "no hint of mixing");
+- mixing time (#W: "the initial bands rapidly vanish as the species mix");
+- the exchange of the segregated regions (#Y: "the segregated regions can be
+  seen to have exchanged positions relative to the initial state");
+- the band speed (#Y: "approximately 1 % of the small particle diameter per
+  revolution" in the central portion of the run);
+- the species at the caps (capped runs: "it is the big particles ... that
+  occupy the end bands"; odd band counts);
+- the band contrast (#P, #Q: fuller drums segregate less thoroughly).
+
+All take the profile as (t, y_centres, phi): rotations, slice centres and the
+small-particle volume fraction per slice (NaN where empty), with the drum's
+overall small fraction ``mean``.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+
+PURE = 0.1  # a slice within 0.1 of a pure species (phi < 0.1 or > 0.9) is segregated
+
+
+def _filled(row, mean):
+    row = np.asarray(row, dtype=np.float64)
+    return np.where(np.isnan(row), mean, row)
+
+
+def interface_width(phi, dy, n_interfaces):
+    """Axial width of the mixed zone per interface: the length of the slices
+    neither nearly pure small (> 1 - PURE) nor nearly pure big (< PURE),
+    divided by the number of interfaces. A sharply segregated profile gives
+    about one slice; a mixed drum gives L / n_interfaces."""
+    phi = np.asarray(phi, dtype=np.float64)
+    mixed = (phi > PURE) & (phi < 1.0 - PURE)
+    return float(mixed.sum(axis=-1) * dy / max(1, n_interfaces)) if phi.ndim == 1 else \
+        mixed.sum(axis=-1) * dy / max(1, n_interfaces)
+
+
+def lasting_below(t, x, level):
+    """First time from which x stays below level to the end (None if it does not)."""
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    if x.size == 0 or x[-1] >= level:
+        return None
+    above = np.nonzero(x >= level)[0]
+    return float(t[0] if above.size == 0 else t[above[-1] + 1])
+
+
+def exchange(phi, mean, smoothing=2.0, periodic=False):
+    """Correlation of each profile with the first one (smoothed deviations
+    from the mean): +1 as it started, -1 with the segregated regions
+    exchanged, near 0 mixed or shifted by a quarter wavelength."""
+    mode = "wrap" if periodic else "nearest"
+    dev = gaussian_filter1d(np.nan_to_num(np.asarray(phi, float) - mean), smoothing, axis=-1, mode=mode)
+    d0 = dev[0]
+    norm = np.sqrt((dev ** 2).sum(axis=-1) * (d0 ** 2).sum())
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(norm > 0, (dev * d0).sum(axis=-1) / norm, 0.0)
+
+
+def interfaces(row, y, mean, smoothing=2.0):
+    """Axial positions where the smoothed profile crosses the mean (linear
+    interpolation between slice centres)."""
+    dev = gaussian_filter1d(_filled(row, mean) - mean, smoothing, mode="nearest")
+    k = np.nonzero(np.sign(dev[:-1]) * np.sign(dev[1:]) < 0)[0]
+    return y[k] + (y[k + 1] - y[k]) * dev[k] / (dev[k] - dev[k + 1])
+
+
+def band_speed(t, y, phi, mean, window=1000.0, smoothing=2.0, central=(0.25, 0.75)):
+    """Speed of the band boundaries, in length units (small diameters) per
+    rotation: every boundary present at both ends of a window of ``window``
+    rotations within the central part of the run (fractions of its length)
+    is followed (nearest crossing in each profile, one slice at most per
+    sample) and fitted with a straight line; returns the median |slope| and
+    the slopes. None if no boundary could be followed."""
+    t = np.asarray(t, float)
+    lo_t, hi_t = t[0] + central[0] * (t[-1] - t[0]), t[0] + central[1] * (t[-1] - t[0])
+    dy = float(y[1] - y[0])
+    slopes = []
+    start = lo_t
+    while start + window <= hi_t:
+        sel = np.nonzero((t >= start) & (t < start + window))[0]
+        start += window
+        if sel.size < 10:
+            continue
+        for y0 in interfaces(phi[sel[0]], y, mean, smoothing):
+            track, times, cur = [], [], y0
+            for k in sel:
+                c = interfaces(phi[k], y, mean, smoothing)
+                if c.size == 0:
+                    break
+                j = int(np.argmin(np.abs(c - cur)))
+                if abs(c[j] - cur) > 2.0 * dy:  # lost it (merged, or another boundary)
+                    break
+                cur = c[j]
+                track.append(cur)
+                times.append(t[k])
+            if len(track) == sel.size:
+                slopes.append(np.polyfit(times, track, 1)[0])
+    if not slopes:
+        return None, []
+    return float(np.median(np.abs(slopes))), [float(s) for s in slopes]
+
+
+def end_species(row, mean, n_slices=4):
+    """Which species fills each end of a capped drum: "big" when the mean
+    small fraction of the ``n_slices`` slices next to the cap is below the
+    drum's, else "small". Returns (left, right)."""
+    row = _filled(row, mean)
+    return tuple("big" if np.nanmean(part) < mean else "small" for part in (row[:n_slices], row[-n_slices:]))
+
+
+def contrast(phi, mean, smoothing=2.0, periodic=True):
+    """Band contrast: the standard deviation along the axis of the smoothed
+    small fraction (0 for a mixed drum, about 0.5 for pure alternating bands)."""
+    mode = "wrap" if periodic else "nearest"
+    dev = gaussian_filter1d(np.nan_to_num(np.asarray(phi, float) - mean), smoothing, axis=-1, mode=mode)
+    return dev.std(axis=-1)
+
+
+def section_v(run, obs):
+    """The claims' numbers for one run (JSON-ready)."""
+    st = obs["spacetime"]
+    t, edges, phi = st.time_rotations, st.y_edges, st.small_fraction
+    y = 0.5 * (edges[1:] + edges[:-1])
+    dy = float(edges[1] - edges[0])
+    from .bands import mean_small_fraction
+    mean = mean_small_fraction(run)
+    periodic = run.scene["drum"]["ends"] == "periodic"
+    sc = run.scene
+    out = {}
+    n_bands = max(1, obs["bands"].final or 1)
+    n_if = n_bands if periodic else max(1, n_bands - 1)
+    width = interface_width(phi, dy, n_if)
+    c = contrast(phi, mean, periodic=periodic)
+    last = t >= t[-1] - 0.1 * (t[-1] - t[0])
+    first = t <= t[0] + 0.1 * (t[-1] - t[0])
+    out["interface_width_first_tenth"] = float(np.mean(width[first]))
+    out["interface_width_last_tenth"] = float(np.mean(width[last]))
+    out["contrast_last_tenth"] = float(np.mean(c[last]))
+    if sc["particles"]["initial_state"] != "mixed":
+        ex = exchange(phi, mean, periodic=periodic)
+        out["exchange_min"] = float(ex.min())
+        out["exchanged_at"] = float(t[np.argmax(ex < -0.5)]) if (ex < -0.5).any() else None
+        order = obs["formation"].smoothed
+        out["mixing_time"] = lasting_below(obs["formation"].time_rotations, order, obs["formation"].threshold)
+    if not periodic:
+        out["ends_last_tenth"] = [end_species(phi[k], mean) for k in np.nonzero(last)[0][-1:]][0]
+        out["band_count_odd"] = bool((obs["bands"].final or 0) % 2 == 1)
+    speed, slopes = band_speed(t, y, phi, mean)
+    out["band_speed_median"] = speed
+    out["band_speed_tracks"] = len(slopes)
+    return out
