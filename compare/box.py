@@ -614,13 +614,27 @@ class ForceRatio(Result):
     big disk's mean position over the frames used (``match="mean"``).
     ratio = mean_with / mean_without.  Errors are standard errors over frames
     (the per-frame ring means), propagated to the ratio.
+
+    Readings of the paper's "sum of the absolute values of the forces ...
+    averaged over time": ``force="contact"`` takes |F| of each disk's net
+    contact force (the engine's /frames/force; at rest it carries the disk's
+    weight), ``force="total"`` adds gravity, |F + m g| = m |a| (the
+    acceleration the paper's explanation speaks of); ``phases="node"`` uses
+    the frames at phase 0 of the vibration, ``phases="all"`` every frame after
+    ``skip_cycles`` (a run written several frames per cycle averages over the
+    phases); ``half="lower"`` or ``"upper"`` keeps the half of the ring below
+    or above the big disk's centre (the paper: "strongest in the lower part").
     """
 
-    def __init__(self, inner=4.5, outer=8.0, skip_cycles=5, match="frame"):
+    def __init__(self, inner=4.5, outer=8.0, skip_cycles=5, match="frame", force="contact", phases="node",
+                 half=None):
         if not 0 <= inner < outer:
             raise ValueError("need 0 <= inner < outer")
         if match not in ("frame", "mean"):
             raise ValueError("match must be 'frame' or 'mean'")
+        if force not in ("contact", "total") or phases not in ("node", "all") or half not in (None, "lower", "upper"):
+            raise ValueError("force: contact|total, phases: node|all, half: None|lower|upper")
+        self.force, self.phases, self.half = force, phases, half
         self.inner = float(inner)
         self.outer = float(outer)
         self.skip_cycles = int(skip_cycles)
@@ -628,15 +642,28 @@ class ForceRatio(Result):
         self._result = None
 
     def _frames(self, run):
-        idx, cyc = node_frames(run)
-        keep = cyc >= self.skip_cycles
-        return idx[keep], cyc[keep]
+        """Frame indices and their keys: the cycle number (node frames) or the
+        cycle count in thousandths (every frame), equal in two runs of the same
+        scene and cadence."""
+        if self.phases == "node":
+            idx, cyc = node_frames(run)
+            keep = cyc >= self.skip_cycles
+            return idx[keep], cyc[keep]
+        c = Shaker(run).cycles(run.frames.time)
+        idx = np.nonzero(c >= self.skip_cycles)[0]
+        return idx, np.round(c[idx] * 1000).astype(np.int64)
 
     def _ring_means(self, run, centres):
         """Per-frame mean |F| of small disks in the ring; centres: {frame: (x, y_rel)}."""
         sh = Shaker(run)
         force = read_forces(run)
         fr = run.frames
+        if self.force == "total":  # m a = contact force + m g (g along -y)
+            pt = run.scene.get("particles", {})
+            area = np.pi * (0.5 * fr.diameter) ** 2 * (1.0 if pt.get("mass_rule") == "area" else 2.0)
+            mass = area * float(pt.get("density", 1.0))
+            force = force.copy()
+            force[..., 1] -= mass * float(run.scene.get("gravity", {}).get("g", 981.0))
         means, counts = [], []
         for f, c in centres.items():
             small = fr.species[f] == SMALL
@@ -644,6 +671,8 @@ class ForceRatio(Result):
             r[:, 1] -= float(sh.y(fr.time[f]))
             dist = np.hypot(r[:, 0] - c[0], r[:, 1] - c[1])
             ring = (dist >= self.inner) & (dist <= self.outer)
+            if self.half is not None:
+                ring &= (r[:, 1] < c[1]) if self.half == "lower" else (r[:, 1] >= c[1])
             if ring.any():
                 fm = np.hypot(force[f, small][ring, 0], force[f, small][ring, 1])
                 means.append(fm.mean())
@@ -723,7 +752,8 @@ class ForceRatio(Result):
     def as_dict(self):
         self._get("ratio")  # raises before compute
         return clean_json(dict({"params": {"inner": self.inner, "outer": self.outer,
-                                       "skip_cycles": self.skip_cycles, "match": self.match}},
+                                       "skip_cycles": self.skip_cycles, "match": self.match, "force": self.force,
+                                       "phases": self.phases, "half": self.half}},
                            **self._result))
 
 
@@ -852,3 +882,46 @@ def onset_from_runs(paths, within_s=None):
     res = onset_threshold(freqs, [sum(by_f[f]) for f in freqs], [len(by_f[f]) for f in freqs])
     res["within_s"] = within_s
     return res
+
+
+def top_motion(height, min_top_s=5.0):
+    """The big disk's up-and-down motion once it has reached the top
+    (Poeschel and Herrmann, Fig. 4: "the large particle moves up and down at
+    the top"). From the 1-cycle mean height after the first top crossing:
+
+    * ``dip_depth``: how far below the top level the disk goes, the 90th
+      percentile of (top - height) over that time, in cm, and as a fraction of
+      the bed depth it rose through (``dip_fraction``);
+    * ``regularity``: the height of the first peak of the autocorrelation of
+      the height (after its first zero, at lags up to a third of the time at
+      the top), 1 for a strictly periodic motion, near 0 for an irregular
+      one; ``period_s`` is that peak's lag.
+
+    ``height`` is a computed BigDiskHeight. None where the disk never reached
+    the top or stayed there less than ``min_top_s`` seconds."""
+    if not height.reached_top:
+        return None
+    t, h = height.times_s, height.height_smoothed
+    sel = t >= height.top_crossing_s
+    t, h = t[sel], h[sel]
+    if t.size < 3 or t[-1] - t[0] < min_top_s:
+        return None
+    top = height.top_height
+    below = top - h
+    depth = float(np.percentile(below, 90))
+    x = h - h.mean()
+    acf = np.correlate(x, x, mode="full")[x.size - 1:]
+    acf = acf / acf[0] if acf[0] > 0 else acf
+    dt = float(np.median(np.diff(t)))
+    zero = np.nonzero(acf <= 0)[0]
+    regularity, period = 0.0, None
+    max_lag = x.size // 3
+    if zero.size and zero[0] < max_lag:
+        rest = acf[zero[0]:max_lag]
+        k = int(np.argmax(rest))
+        if rest[k] > 0:
+            regularity, period = float(rest[k]), float((zero[0] + k) * dt)
+    span = top - height.start_height
+    return {"seconds_at_top": float(t[-1] - t[0]), "dip_depth": depth,
+            "dip_fraction": depth / span if span > 0 else None,
+            "regularity": regularity, "period_s": period}

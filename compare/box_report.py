@@ -21,7 +21,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ._common import clean_json
-from .box import BigDiskHeight, ConvectiveFlux, ForceRatio, Shaker, VelocityField, _big_column
+from .box import BigDiskHeight, ConvectiveFlux, ForceRatio, Shaker, VelocityField, _big_column, top_motion
 from .reader import read_run
 
 
@@ -35,15 +35,21 @@ def _label(path) -> str:
 
 # --------------------------------------------------------------------------- Fig. 3 and the force ratio
 
-def flux_by_frequency(big_paths, nobig_paths, skip_cycles=5):
-    """Phi(D) of every run, grouped by frequency: {f: {"big": [...], "nobig": [...]}}.
+def flux_by_frequency(big_paths, nobig_paths, skip_cycles=5, periods=50):
+    """Phi(D) of every run, grouped by frequency: {f: {"big": [...], "nobig": [...]}},
+    over the last ``periods`` cycles of shaking (the paper's Fig. 3 averages
+    over 50; None: every cycle after ``skip_cycles``).
     The line heights are fractions of each run's own settled bed height, so
     runs are averaged on D / H."""
     groups = {}
     for kind, paths in (("big", big_paths), ("nobig", nobig_paths)):
         for p in paths:
             run = read_run(p)
-            cf = ConvectiveFlux(skip_cycles=skip_cycles).compute(run)
+            skip = skip_cycles
+            if periods:
+                total = int(Shaker(run).cycles(run.frames.time[-1]))
+                skip = max(skip_cycles, total - periods)
+            cf = ConvectiveFlux(skip_cycles=skip, max_cycles=periods).compute(run)
             groups.setdefault(_freq(run), {"big": [], "nobig": []})[kind].append(
                 {"run": _label(p), "heights": cf.heights, "bed_height": cf.bed_height, "phi": cf.phi,
                  "phi_se": cf.phi_se, "phi_max": cf.phi_max, "depth": cf.depth, "cycles": cf.cycles_used,
@@ -128,24 +134,67 @@ def plot_velocity(paths, path, periods=50):
 # --------------------------------------------------------------------------- Fig. 4
 
 def plot_heights(paths, path):
-    fig = Figure(figsize=(8, 4.5), layout="constrained")
-    ax = fig.add_subplot()
-    out = []
+    """Fig. 4: the big disk's height against time, one panel per radius and
+    frequency with every packing; per run the waiting and rise times and the
+    motion at the top (compare.box.top_motion)."""
+    rows, curves = [], {}
     for p in paths:
         run = read_run(p)
         h = BigDiskHeight().compute(run)
-        lbl = f"R = {h.big_radius:g} cm, {_freq(run):g} Hz ({_label(p)})"
-        if h.reached_top:
-            lbl += f": waits {h.waiting_time_s:.1f} s, rises in {h.rise_time_s:.1f} s"
-        ax.plot(h.times_s, h.height_smoothed, lw=1.0, label=lbl)
-        out.append({"run": _label(p), "frequency": _freq(run), "big_radius": h.big_radius,
-                    "reached_top": bool(h.reached_top), "waiting_time_s": h.waiting_time_s,
-                    "rise_time_s": h.rise_time_s, "top_height": h.top_height})
-    ax.set_xlabel("time of shaking (s)")
-    ax.set_ylabel("height of the big disk's bottom above the floor (cm)")
-    ax.legend(fontsize=7, loc="upper left")
-    fig.savefig(path, dpi=130)
-    return out
+        key = (h.big_radius, _freq(run))
+        curves.setdefault(key, []).append((_label(p), h))
+        rows.append({"run": _label(p), "frequency": _freq(run), "big_radius": h.big_radius,
+                     "reached_top": bool(h.reached_top), "waiting_time_s": h.waiting_time_s,
+                     "rise_time_s": h.rise_time_s, "top_height": h.top_height,
+                     "seconds": float(h.times_s[-1]) if h.times_s.size else 0.0, "top_motion": top_motion(h)})
+    keys = sorted(curves)
+    fig = Figure(figsize=(8, 3.2 * len(keys)), layout="constrained")
+    axes = fig.subplots(len(keys), 1, squeeze=False)[:, 0]
+    for ax, key in zip(axes, keys):
+        for label, h in curves[key]:
+            lbl = label
+            if h.reached_top:
+                lbl += f": waits {h.waiting_time_s:.0f} s"
+            ax.plot(h.times_s, h.height_smoothed, lw=0.9, label=lbl)
+        ax.axhline(curves[key][0][1].top_height, ls="--", color="0.4", lw=0.7)
+        ax.set_title(f"R = {key[0]:g} cm, {key[1]:g} Hz: {len(curves[key])} packings", fontsize=9)
+        ax.set_ylabel("height above floor (cm)")
+        ax.legend(fontsize=6, loc="upper left", ncol=2)
+    axes[-1].set_xlabel("time of shaking (s)")
+    fig.savefig(path, dpi=110)
+    return rows
+
+
+def height_groups(rows):
+    """Fig. 4's numbers per (radius, frequency): rise fraction, waiting times,
+    dip depth and regularity at the top, with a rank test between the two
+    smallest radii at each frequency (scipy.stats.mannwhitneyu)."""
+    from scipy.stats import mannwhitneyu
+    groups = {}
+    for r in rows:
+        groups.setdefault((r["big_radius"], r["frequency"]), []).append(r)
+    out = []
+    for (radius, f), g in sorted(groups.items()):
+        wait = [r["waiting_time_s"] for r in g if r["reached_top"]]
+        tm = [r["top_motion"] for r in g if r["top_motion"]]
+        out.append({"big_radius": radius, "frequency": f, "packings": len(g), "risen": len(wait),
+                    "seconds": min(r["seconds"] for r in g), "waiting_s": wait,
+                    "waiting_median_s": float(np.median(wait)) if wait else None,
+                    "dip_fraction": [m["dip_fraction"] for m in tm], "regularity": [m["regularity"] for m in tm]})
+    tests = []
+    by_f = {}
+    for g in out:
+        by_f.setdefault(g["frequency"], []).append(g)
+    for f, gs in by_f.items():
+        if len(gs) < 2:
+            continue
+        a, b = gs[0], gs[1]
+        t = {"frequency": f, "radii": [a["big_radius"], b["big_radius"]]}
+        for key in ("waiting_s", "dip_fraction", "regularity"):
+            if len(a[key]) >= 3 and len(b[key]) >= 3:
+                t[key + "_p"] = float(mannwhitneyu(a[key], b[key], alternative="two-sided").pvalue)
+        tests.append(t)
+    return out, tests
 
 
 # --------------------------------------------------------------------------- the ramp
@@ -176,7 +225,7 @@ def ramp_windows(path, window_cycles=10, skip_cycles=5):
             m = (hd.times_s >= u - 0.5 * window_cycles / f_mid) & (hd.times_s < u + 0.5 * window_cycles / f_mid)
             row["big_height"] = float(np.mean(hd.height[m])) if m.any() else None
         rows.append(row)
-    return {"run": _label(path), "f_start": sh.f0, "f_end": sh.f1, "window_cycles": window_cycles,
+    return {"run": _label(path), "f_start": sh.f0, "f_end": sh.f1, "ramp_time": sh.ramp_time, "window_cycles": window_cycles,
             "big_disk": big, "windows": rows}
 
 
@@ -233,6 +282,35 @@ def plot_ramps(ramps, path, level):
     return path
 
 
+def ramp_groups(ramps):
+    """The ramp claim over packings: per ramp rate and big disk, the onset
+    going up and the switch-off going down (mean, sd, range over packings: the
+    transition's width between runs), and the hysteresis up - down with its
+    95 % interval (Welch's t, statsmodels' CompareMeans)."""
+    from statsmodels.stats.weightstats import CompareMeans
+    groups = {}
+    for r in ramps:
+        rate = abs(r["f_end"] - r["f_start"]) / r["ramp_time"] if r.get("ramp_time") else None
+        key = (round(rate, 6) if rate else None, bool(r["big_disk"]))
+        groups.setdefault(key, {"up": [], "down": []})["up" if r["f_end"] > r["f_start"] else "down"].append(
+            r["onset"])
+    out = []
+    for (rate, big), g in sorted(groups.items(), key=lambda kv: (kv[0][0] or 0, kv[0][1])):
+        row = {"rate_hz_per_s": rate, "big_disk": big}
+        for d in ("up", "down"):
+            v = [x for x in g[d] if x is not None]
+            row[d] = v
+            row[d + "_missing"] = len(g[d]) - len(v)
+        if len(row["up"]) >= 2 and len(row["down"]) >= 2:
+            lo, hi = CompareMeans.from_data(row["up"], row["down"]).tconfint_diff(alpha=0.05, usevar="unequal")
+            row["hysteresis"] = float(np.mean(row["up"]) - np.mean(row["down"]))
+            row["hysteresis_ci95"] = [float(lo), float(hi)]
+        elif row["up"] and row["down"]:
+            row["hysteresis"] = float(np.mean(row["up"]) - np.mean(row["down"]))
+        out.append(row)
+    return out
+
+
 # --------------------------------------------------------------------------- all
 
 def box_report(big, nobig, ramps, heights, velocity, out_dir, level=3.0, window_cycles=10):
@@ -251,6 +329,7 @@ def box_report(big, nobig, ramps, heights, velocity, out_dir, level=3.0, window_
         res["velocity"] = plot_velocity(velocity, out / "fig1_velocity.png")
     if heights:
         res["heights"] = plot_heights(heights, out / "fig4_height.png")
+        res["height_groups"], res["height_tests"] = height_groups(res["heights"])
     if ramps:
         rr = [ramp_windows(p, window_cycles) for p in ramps]
         for r in rr:
@@ -258,6 +337,7 @@ def box_report(big, nobig, ramps, heights, velocity, out_dir, level=3.0, window_
         plot_ramps(rr, out / "ramp_flux.png", level)
         res["ramps"] = rr
         res["ramp_level"] = level
+        res["ramp_groups"] = ramp_groups(rr)
     res = clean_json(res)
     (out / "box_report.json").write_text(json.dumps(res, indent=1) + "\n")
     return res
@@ -281,6 +361,36 @@ def summary_markdown(res) -> str:
             sd = "–" if s["sd"] is None else f"{s['sd']:.3f}"
             se = "–" if s["se"] is None else f"{s['se']:.3f}"
             lines.append(f"| {f} | {s['packings']} | {s['mean']:.3f} | {sd} | {se} |")
+    if "height_groups" in res:
+        def ms(v, spec=".2f"):
+            return "–" if not v else (f"{np.mean(v):{spec}} ± {np.std(v, ddof=1):{spec}}" if len(v) > 1
+                                      else f"{v[0]:{spec}}")
+        lines += ["", "| R (cm) | f (Hz) | risen / packings (within s) | waiting (s), median [all] | "
+                  "dip depth / bed depth at the top | regularity at the top |", "|---|---|---|---|---|---|"]
+        for g in res["height_groups"]:
+            med = "–" if g["waiting_median_s"] is None else f"{g['waiting_median_s']:.0f}"
+            lines.append(f"| {g['big_radius']:g} | {g['frequency']:g} | {g['risen']} / {g['packings']} "
+                         f"({g['seconds']:.0f}) | {med} [{', '.join(f'{w:.0f}' for w in sorted(g['waiting_s']))}] | "
+                         f"{ms(g['dip_fraction'])} | {ms(g['regularity'])} |")
+        for t in res.get("height_tests", []):
+            ps = ", ".join(f"{k[:-2]} p = {v:.2f}" for k, v in t.items() if k.endswith("_p"))
+            lines.append(f"\nR = {t['radii'][0]:g} against {t['radii'][1]:g} cm at {t['frequency']:g} Hz "
+                         f"(Mann-Whitney, two-sided): {ps or 'too few risen packings'}.")
+    if "ramp_groups" in res:
+        def spread(v):
+            if not v:
+                return "–"
+            if len(v) == 1:
+                return f"{v[0]:.3f}"
+            return f"{np.mean(v):.3f} ± {np.std(v, ddof=1):.3f} (range {max(v) - min(v):.3f})"
+        lines += ["", "| ramp rate (Hz/s) | big disk | on, going up: mean ± sd over packings | off, going down | "
+                  "hysteresis up − down (95 % interval) |", "|---|---|---|---|---|"]
+        for g in res["ramp_groups"]:
+            hy = "–" if "hysteresis" not in g else f"{g['hysteresis']:+.3f} Hz"
+            if "hysteresis_ci95" in g:
+                hy += f" [{g['hysteresis_ci95'][0]:+.3f}, {g['hysteresis_ci95'][1]:+.3f}]"
+            lines.append(f"| {g['rate_hz_per_s'] if g['rate_hz_per_s'] is None else format(g['rate_hz_per_s'], 'g')} | "
+                         f"{'yes' if g['big_disk'] else 'no'} | {spread(g['up'])} | {spread(g['down'])} | {hy} |")
     if "ramps" in res:
         lines += ["", f"| ramp | big disk | convection on/off at (depth-mean Φ > {res['ramp_level']:g}) |",
                   "|---|---|---|"]

@@ -246,7 +246,8 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
         figs.append((rid, out))
 
     surf_rows = []
-    for name, label in (("Jsec", "#J section (Ω = 0.5)"), ("Ksec", "#K section (Ω = 0.1)")):
+    for name, label in (("J", "#J (Ω = 0.5), last 10 snapshots"), ("K", "#K (Ω = 0.1), last 10 snapshots"),
+                        ("Jsec", "#J section (Ω = 0.5)"), ("Ksec", "#K section (Ω = 0.1)")):
         path = run_dir / f"{name}.h5"
         if not path.exists():
             continue

@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 
 PACKAGES=(cmake g++ make pkg-config
   libeigen3-dev libhdf5-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libgtest-dev
-  python3-numpy python3-scipy python3-h5py python3-matplotlib python3-pytest python3-pytest-timeout
+  python3-numpy python3-scipy python3-statsmodels python3-h5py python3-matplotlib python3-pytest python3-pytest-timeout
   lammps python3-lammps liblammps-dev openmpi-bin
   yade chromium
   clang libclang-rt-14-dev libomp-dev)  # scripts/sanitize.sh, scripts/fuzz.sh

@@ -562,3 +562,39 @@ def test_onset_command_on_real_runs(tmp_path):
     res = json.loads(r.stdout)
     assert res["freqs"] == [3.0] and res["trials"] == [1] and res["successes"] == [0]
     assert res["threshold_position"] == "above_grid"
+
+
+def test_top_motion_on_a_known_oscillation():
+    """A disk that reaches the top at 10 s and then moves as top - 10 (1 - cos(2 pi t / 8)) / 2
+    dips 10 cm (90th percentile just under it) with a period of 8 s and a
+    regularity near 1; white noise instead gives a regularity near 0."""
+    from types import SimpleNamespace
+    from compare.box import top_motion
+    t = np.arange(0.0, 100.0, 0.05)
+    top = 50.0
+    h = np.where(t < 10, 5 * t, top - 10 * (1 - np.cos(2 * np.pi * (t - 10) / 8)) / 2)
+    hd = SimpleNamespace(reached_top=True, times_s=t, height_smoothed=h, top_crossing_s=10.0, top_height=top,
+                         start_height=0.0)
+    m = top_motion(hd)
+    assert 9.0 < m["dip_depth"] <= 10.0 and m["dip_fraction"] == pytest.approx(m["dip_depth"] / 50)
+    assert m["period_s"] == pytest.approx(8.0, abs=0.2) and m["regularity"] > 0.8
+    rng = np.random.default_rng(3)
+    noisy = SimpleNamespace(**dict(vars(hd), height_smoothed=np.where(t < 10, h, top - 10 * rng.random(t.size))))
+    assert top_motion(noisy)["regularity"] < 0.2
+    assert top_motion(SimpleNamespace(**dict(vars(hd), reached_top=False))) is None
+
+
+def test_ramp_groups_hysteresis():
+    """Onsets up 2.70 +- 0.01 and down 2.64 +- 0.01 over four packings each:
+    hysteresis +0.06 Hz with an interval excluding zero; equal onsets give an
+    interval containing it."""
+    from compare.box_report import ramp_groups
+    up = [2.69, 2.70, 2.71, 2.70]
+    down = [2.63, 2.64, 2.65, 2.64]
+    rows = [{"f_start": 2.4, "f_end": 3.4, "ramp_time": 200.0, "big_disk": False, "onset": f} for f in up] + \
+           [{"f_start": 3.4, "f_end": 2.4, "ramp_time": 200.0, "big_disk": False, "onset": f} for f in down]
+    g = ramp_groups(rows)[0]
+    assert g["rate_hz_per_s"] == pytest.approx(0.005) and g["hysteresis"] == pytest.approx(0.06)
+    assert g["hysteresis_ci95"][0] > 0
+    same = ramp_groups([dict(r, onset=2.7 + 0.01 * (i % 3)) for i, r in enumerate(rows)])[0]
+    assert same["hysteresis_ci95"][0] < 0 < same["hysteresis_ci95"][1]
