@@ -130,7 +130,22 @@ def main(argv=None):
                     help="comma-separated subset of rows (native-paper, native-linear, lammps, native-viscel, yade)")
     va.add_argument("--cases", default=None, help="comma-separated subset of the suite's cases (quick: drum_short, "
                     "box; full: drum_A, box); the report covers only these")
+    vw = sub.add_parser("views", help="drum: the particles seen from above, below or obliquely")
+    vw.add_argument("run")
+    vw.add_argument("-o", "--output", required=True, help="PNG to write")
+    vw.add_argument("--frame", type=int, default=-1, help="frame index (default: the last)")
+    vw.add_argument("--view", default="top,bottom", help="comma-separated views: top, bottom, oblique")
+    vw.add_argument("--no-species", action="store_true", help="leave out the small-only and big-only rows")
     args = parser.parse_args(argv)
+
+    if args.command == "views":
+        from .views import write_views
+        try:
+            print(write_views(args.run, args.output, frame=args.frame, views=tuple(args.view.split(",")),
+                              species_panels=not args.no_species))
+        except (OSError, ValueError) as exc:
+            return _fail("views", args.run, exc)
+        return 0
 
     if args.command == "grid":
         from .grid import main as grid_main
