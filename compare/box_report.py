@@ -74,7 +74,8 @@ def plot_flux(groups, path):
             ax.plot(np.nanmean(x, axis=0), z, color=colour, lw=1.8,
                     label=f"{'with' if kind == 'big' else 'without'} big disk ({len(rows)})")
         ax.axvline(0.0, color="0.4", lw=0.6)
-        ax.set_title(f"{f:g} Hz")
+        cycles = sorted({r["cycles"] for k in ("big", "nobig") for r in groups[f][k]})
+        ax.set_title(f"{f:g} Hz, {'/'.join(str(c) for c in cycles)} cycles")
         ax.set_xlabel("Φ (particles / cycle)")
         ax.legend(fontsize=7, loc="lower right")
     axes[0].set_ylabel("height D / settled bed height H")

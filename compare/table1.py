@@ -245,6 +245,22 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
         fig.savefig(out, dpi=70)
         figs.append((rid, out))
 
+    # The paper's particle views (Figs. 2, 6, 8, 17) from the last snapshot of each run present
+    view_figs = []
+    for rid, views, species, fig_no in (("A", ("top",), True, "2"), ("J", ("top", "oblique"), True, "6"),
+                                        ("K", ("top", "bottom"), True, "8"), ("Y", ("top",), True, "17")):
+        path = run_dir / f"{rid}.h5"
+        if not path.exists():
+            continue
+        from .views import drum_views
+        vrun = read_run(path)
+        frames = [vrun.frames.n_frames - 1] if rid != "Y" else sorted({0, vrun.frames.n_frames // 2,
+                                                                      vrun.frames.n_frames - 1})
+        for k in frames:
+            out = fig_dir / f"{rid}_views_{k}.png"
+            drum_views(vrun, frame=k, views=views, species_panels=species).savefig(out, dpi=60)
+            view_figs.append((f"#{rid} (the paper's Fig. {fig_no}), frame {k}", out))
+
     surf_rows = []
     for name, label in (("J", "#J (Ω = 0.5), last 10 snapshots"), ("K", "#K (Ω = 0.1), last 10 snapshots"),
                         ("Jsec", "#J section (Ω = 0.5)"), ("Ksec", "#K section (Ω = 0.1)")):
@@ -295,6 +311,9 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
                   "estimate for #J and #K: 10°–20°.", "",
                   "| run | L | N | rotations | slope | small surface | big surface |", "|---|---|---|---|---|---|---|"]
         lines += surf_rows
+    if view_figs:
+        lines += ["", "## Views of the particles", ""]
+        lines += [f"![{label}]({rel}/{p.name})" for label, p in view_figs]
     lines += ["", "## Figures", ""]
     lines += [f"![{rid}]({rel}/{p.name})" for rid, p in figs]
     notes = Path(notes) if notes else out_md.with_name("table1_notes.md")
