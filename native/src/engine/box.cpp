@@ -189,7 +189,10 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
   };
   const long start = begin_run(sim, ctl, {&snap_k, &trace_k}, "shaken-box", [&] { observe(true); });
   Checkpointer checkpoints(ctl);
-  if (out) out->start_swmr();
+  if (out) {
+    out->start_swmr();
+    out->write_xdmf();  // from the start, the description beside the output is this run's
+  }
   sim.timers.reset();
   const auto t0 = std::chrono::steady_clock::now();
   auto last = t0;
@@ -203,28 +206,39 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
     const double c = s.cycle(t);
     return c >= (snap_k + 1) * s.snapshot_every_cycles || c * s.trace_per_cycle >= trace_k + 1;
   };
-  for (long k = start; k < total;) {
-    const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
-    sim.advance(next - k);
-    k = next;
-    if (k % health.every == 0 || k == total) {
-      check_health(sim, health);
-      check_smooth_walls(sim, health);
-    }
-    observe(k == settle_steps || k == total);
-    checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total);
-    if (progress && (k % 500 == 0 || k == total)) {
-      const auto now = std::chrono::steady_clock::now();
-      if (now - last > std::chrono::milliseconds(500) || k == total) {
-        last = now;
-        const double el = std::chrono::duration<double>(now - t0).count();
-        std::fprintf(stderr, "\r  t = %.2f / %.2f s (%s)   %.3g particle-steps/s   %.0f s left   ", sim.time,
-                     s.settle + s.duration, k <= settle_steps ? "settling" : "shaking", (k - start) * n / el,
-                     el / (k - start) * (total - k));
-        std::fflush(stderr);
+  // The XDMF description beside the output (io/xdmf.hpp) is rewritten after
+  // each checkpoint and where the run ends: at its last step, on SIGINT or
+  // SIGTERM (Interrupted), or when it stops unstable (UnstableError).
+  try {
+    for (long k = start; k < total;) {
+      const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
+      sim.advance(next - k);
+      k = next;
+      if (k % health.every == 0 || k == total) {
+        check_health(sim, health);
+        check_smooth_walls(sim, health);
+      }
+      observe(k == settle_steps || k == total);
+      const long saved = checkpoints.written();
+      checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total);
+      if (out && checkpoints.written() != saved && k != total) out->write_xdmf();  // current with the checkpoint
+      if (progress && (k % 500 == 0 || k == total)) {
+        const auto now = std::chrono::steady_clock::now();
+        if (now - last > std::chrono::milliseconds(500) || k == total) {
+          last = now;
+          const double el = std::chrono::duration<double>(now - t0).count();
+          std::fprintf(stderr, "\r  t = %.2f / %.2f s (%s)   %.3g particle-steps/s   %.0f s left   ", sim.time,
+                       s.settle + s.duration, k <= settle_steps ? "settling" : "shaking", (k - start) * n / el,
+                       el / (k - start) * (total - k));
+          std::fflush(stderr);
+        }
       }
     }
+  } catch (...) {
+    if (out) out->write_xdmf();
+    throw;
   }
+  if (out) out->write_xdmf();
   if (progress) std::fprintf(stderr, "\n");
   RunReport r;
   r.steps = std::max(0L, total - start);

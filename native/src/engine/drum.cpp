@@ -169,7 +169,10 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
   if (out) out->init_profile(edges);
   const long start = begin_run(sim, ctl, {&snap_k, &prof_k}, "drum", [&] { observe(false); });
   Checkpointer checkpoints(ctl);
-  if (out) out->start_swmr();
+  if (out) {
+    out->start_swmr();
+    out->write_xdmf();  // from the start, the description beside the output is this run's
+  }
   sim.timers.reset();
   const auto t0 = std::chrono::steady_clock::now();
   auto last_print = t0;
@@ -179,26 +182,37 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
     return k % health.every == 0 || s.steps_per(prof_k * s.profile_every) <= k ||
            s.steps_per(snap_k * s.snapshot_every) <= k || checkpoints.may_act_at(k) || (progress && k % 200 == 0);
   };
-  for (long k = start; k < total;) {
-    const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
-    sim.advance(next - k);
-    k = next;
-    const bool fin = k == total;
-    if (k % health.every == 0 || fin) check_health(sim, health);
-    observe(fin);
-    checkpoints.after_step(sim, out, {snap_k, prof_k}, fin);
-    if (progress && (k % 200 == 0 || fin)) {
-      const auto now = std::chrono::steady_clock::now();
-      if (now - last_print > std::chrono::milliseconds(500) || fin) {
-        last_print = now;
-        const double el = std::chrono::duration<double>(now - t0).count();
-        const double rate = el > 0 ? static_cast<double>(k - start) * n / el : 0.0;
-        std::fprintf(stderr, "\r  rotation %.2f / %.2f   %.3g particle-steps/s   %s left   ", sim.time / period,
-                     s.rotations, rate, format_duration(el / (k - start) * (total - k)).c_str());
-        std::fflush(stderr);
+  // The XDMF description beside the output (io/xdmf.hpp) is rewritten after
+  // each checkpoint and where the run ends: at its last step, on SIGINT or
+  // SIGTERM (Interrupted), or when it stops unstable (UnstableError).
+  try {
+    for (long k = start; k < total;) {
+      const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
+      sim.advance(next - k);
+      k = next;
+      const bool fin = k == total;
+      if (k % health.every == 0 || fin) check_health(sim, health);
+      observe(fin);
+      const long saved = checkpoints.written();
+      checkpoints.after_step(sim, out, {snap_k, prof_k}, fin);
+      if (out && checkpoints.written() != saved && !fin) out->write_xdmf();  // current with the checkpoint
+      if (progress && (k % 200 == 0 || fin)) {
+        const auto now = std::chrono::steady_clock::now();
+        if (now - last_print > std::chrono::milliseconds(500) || fin) {
+          last_print = now;
+          const double el = std::chrono::duration<double>(now - t0).count();
+          const double rate = el > 0 ? static_cast<double>(k - start) * n / el : 0.0;
+          std::fprintf(stderr, "\r  rotation %.2f / %.2f   %.3g particle-steps/s   %s left   ", sim.time / period,
+                       s.rotations, rate, format_duration(el / (k - start) * (total - k)).c_str());
+          std::fflush(stderr);
+        }
       }
     }
+  } catch (...) {
+    if (out) out->write_xdmf();
+    throw;
   }
+  if (out) out->write_xdmf();
   if (progress) std::fprintf(stderr, "\n");
   RunReport r;
   r.steps = std::max(0L, total - start);

@@ -1,6 +1,9 @@
 #include "io/h5_output.hpp"
 
+#include "io/xdmf.hpp"
+
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <stdexcept>
 #include <system_error>
@@ -14,7 +17,7 @@ void check(herr_t e, const std::string& what, const std::string& path) {
 }  // namespace
 
 H5Output::H5Output(const std::string& path, int dim, std::int64_t n, bool with_force, const RowCounts* resume)
-    : path_(path), with_force_(with_force), resuming_(resume != nullptr) {
+    : path_(path), dim_(dim), n_(n), with_force_(with_force), resuming_(resume != nullptr) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions below, not stderr dumps
   // The HDF5 1.10 format, which single-writer/multiple-reader mode needs (start_swmr()).
   hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
@@ -243,6 +246,38 @@ void H5Output::write_frame(double time, long step, const std::vector<std::int64_
   append(f_vel_, v.data());
   append(f_ang_, w.data());
   check(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flushing", path_);
+}
+
+bool H5Output::write_xdmf() const noexcept {
+  try {
+    // The frames every /frames dataset holds (all hold the same number
+    // between two frames), and their times read back from /frames/time.
+    hsize_t nf = f_time_.rows;
+    for (const Appendable* a : {&f_step_, &f_id_, &f_species_, &f_diam_, &f_pos_, &f_vel_, &f_ang_, &f_force_})
+      if (a->dset >= 0) nf = std::min(nf, a->rows);
+    XdmfFrames fr;
+    fr.dim = dim_;
+    fr.particles = n_;
+    fr.with_force = with_force_;
+    fr.times.resize(static_cast<std::size_t>(nf));
+    if (nf > 0) {
+      const hsize_t start = 0;
+      hid_t fspace = H5Dget_space(f_time_.dset);
+      H5Sselect_hyperslab(fspace, H5S_SELECT_SET, &start, nullptr, &nf, nullptr);
+      hid_t mspace = H5Screate_simple(1, &nf, nullptr);
+      const herr_t e = H5Dread(f_time_.dset, H5T_NATIVE_DOUBLE, mspace, fspace, H5P_DEFAULT, fr.times.data());
+      H5Sclose(mspace);
+      H5Sclose(fspace);
+      check(e, "reading frames/time back", path_);
+    }
+    granular::write_xdmf(path_, fr);
+    return true;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "warning: no XDMF description of %s: %s\n", path_.c_str(), e.what());
+  } catch (...) {
+    std::fprintf(stderr, "warning: no XDMF description of %s\n", path_.c_str());
+  }
+  return false;
 }
 
 void H5Output::init_profile(const std::vector<double>& edges) {

@@ -61,6 +61,11 @@ class H5Output {
   // swmr=True, as compare.reader does) and holds every row flushed.
   void start_swmr();
 
+  // Rewrites the XDMF description beside the file (io/xdmf.hpp) for the
+  // frames written so far. Returns false, with a warning on stderr, where it
+  // cannot: the description is a convenience, the HDF5 file stays complete.
+  bool write_xdmf() const noexcept;
+
  private:
   struct Appendable {
     std::string name;  // path in the file
@@ -83,6 +88,8 @@ class H5Output {
                    const std::vector<double>& w);
 
   std::string path_;
+  int dim_ = 3;
+  std::int64_t n_ = 0;
   hid_t file_ = -1, frames_ = -1, profile_ = -1;
   hid_t old_ = -1;  // resuming: the file being continued, read-only until the copy replaces it
   Appendable f_time_, f_step_, f_id_, f_species_, f_diam_, f_pos_, f_vel_, f_ang_;
