@@ -11,6 +11,9 @@
     python3 -m compare step-sweep -o DIR [--part P]     observables against the time step; the stability map
     python3 -m compare box-report --big RUN... --nobig RUN... [--ramp RUN...] [--height RUN...]
                        [--velocity RUN...] -o DIR      the shaken box's figures over many runs
+    python3 -m compare box-placement RUN...             the big disk's start height against its waiting time
+    python3 -m compare box-forces --big RUN... --nobig RUN...   the force ratio under each reading
+    python3 -m compare views RUN.h5 -o OUT.png          the particles seen from above, below, obliquely
 
 
 Expected failures (missing file, wrong schema, not a drum) print one line to
@@ -107,6 +110,11 @@ def main(argv=None):
     br.add_argument("--ramp", nargs="*", default=[], help="frequency-ramp runs (convection onset, hysteresis)")
     br.add_argument("--height", nargs="*", default=[], help="runs whose big-disk height is drawn (Fig. 4)")
     br.add_argument("--velocity", nargs="*", default=[], help="runs whose drift field is drawn (Fig. 1)")
+    bp = sub.add_parser("box-placement", help="shaken box: the big disk's start height against its waiting time")
+    bp.add_argument("runs", nargs="+")
+    bf = sub.add_parser("box-forces", help="shaken box: the force ratio under each reading of the paper's measure")
+    bf.add_argument("--big", nargs="+", required=True)
+    bf.add_argument("--nobig", nargs="+", required=True)
     br.add_argument("--level", type=float, default=3.0,
                     help="ramp: depth-averaged Phi (particles/cycle) above which convection counts as on")
     br.add_argument("--window", type=int, default=10, help="ramp: cycles per window")
@@ -175,6 +183,16 @@ def main(argv=None):
         res = sweep(args.output, parts=parts, engines=tuple(args.engines.split(",")),
                     log=lambda m: print(m, file=sys.stderr, flush=True), cached_only=args.cached_only)
         print(markdown(res))
+        return 0
+
+    if args.command in ("box-placement", "box-forces"):
+        from .box_report import force_readings, placement_table
+        try:
+            print(placement_table(args.runs) if args.command == "box-placement"
+                  else force_readings(args.big, args.nobig), end="")
+        except (OSError, ValueError) as exc:
+            print(f"{args.command}: error: {exc}", file=sys.stderr)
+            return 2
         return 0
 
     if args.command == "box-report":

@@ -399,3 +399,54 @@ def summary_markdown(res) -> str:
             on = "–" if r["onset"] is None else f"{r['onset']:.3f} Hz"
             lines.append(f"| {r['f_start']:g} → {r['f_end']:g} Hz | {'yes' if r['big_disk'] else 'no'} | {on} |")
     return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------- placement and force readings
+
+def placement_table(paths):
+    """The big disk's start against its rise: runs grouped by ``big.gap`` (the
+    gap between the floor and the disk's bottom as placed), each with the
+    disk's height after settling and its waiting time (BigDiskHeight)."""
+    groups = {}
+    for p in paths:
+        run = read_run(p)
+        h = BigDiskHeight().compute(run)
+        gap = float(run.scene.get("big", {}).get("gap", 2.0))
+        groups.setdefault((gap, float(h.big_radius), _freq(run)), []).append(
+            (h.start_height, h.waiting_time_s, float(h.times_s[-1]) if h.times_s.size else 0.0))
+    lines = ["| R (cm) | f (Hz) | big.gap (cm) | disk bottom after settling (cm), median [range] | risen / packings "
+             "(within s) | waiting (s), median [all] |", "|---|---|---|---|---|---|"]
+    for (gap, radius, f), g in sorted(groups.items()):
+        start = [x[0] for x in g]
+        wait = sorted(x[1] for x in g if x[1] is not None)
+        med = "–" if not wait else f"{np.median(wait):.1f}"
+        lines.append(f"| {radius:g} | {f:g} | {gap:g} | {np.median(start):.1f} [{min(start):.1f}–{max(start):.1f}] | "
+                     f"{len(wait)} / {len(g)} ({min(x[2] for x in g):.0f}) | {med} "
+                     f"[{', '.join(f'{w:.1f}' for w in wait)}] |")
+    return "\n".join(lines) + "\n"
+
+
+def force_readings(big_paths, nobig_paths):
+    """The force ratio under each reading of the paper's measure (ForceRatio:
+    contact or total force, phase 0 or every phase, whole or lower half ring),
+    each run with the big disk against the run without it from the same
+    packing and frequency; mean and standard error over packings."""
+    def key(run):
+        return _freq(run), int(run.scene.get("particles", {}).get("seed", 1))
+    nobig = {key(r): r for r in map(read_run, nobig_paths)}
+    pairs = {}
+    for r in map(read_run, big_paths):
+        if key(r) in nobig:
+            pairs.setdefault(key(r)[0], []).append((r, nobig[key(r)]))
+    lines = ["| f (Hz) | packings | force | phases | ring | ratio, mean ± s.e. over packings |",
+             "|---|---|---|---|---|---|"]
+    for f, pp in sorted(pairs.items()):
+        for force in ("contact", "total"):
+            for phases in ("node", "all"):
+                for half in (None, "lower"):
+                    v = np.array([ForceRatio(force=force, phases=phases, half=half).compute(b, reference=n).ratio
+                                  for b, n in pp])
+                    se = v.std(ddof=1) / math.sqrt(len(v)) if len(v) > 1 else float("nan")
+                    lines.append(f"| {f:g} | {len(v)} | {force} | {'phase 0' if phases == 'node' else 'all'} | "
+                                 f"{half or 'whole'} | {v.mean():.3f} ± {se:.3f} |")
+    return "\n".join(lines) + "\n"

@@ -598,3 +598,13 @@ def test_ramp_groups_hysteresis():
     assert g["hysteresis_ci95"][0] > 0
     same = ramp_groups([dict(r, onset=2.7 + 0.01 * (i % 3)) for i, r in enumerate(rows)])[0]
     assert same["hysteresis_ci95"][0] < 0 < same["hysteresis_ci95"][1]
+
+
+def test_placement_and_forces_commands_refuse_missing_files():
+    """`compare box-placement` and `compare box-forces` name the missing file
+    in one line and exit 2, like every other subcommand."""
+    for args in (["box-placement", "/nonexistent/run.h5"],
+                 ["box-forces", "--big", "/nonexistent/a.h5", "--nobig", "/nonexistent/b.h5"]):
+        r = subprocess.run(["/usr/bin/python3", "-m", "compare", *args], capture_output=True, text=True,
+                           cwd=Path(__file__).resolve().parents[2])
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "nonexistent" in r.stderr
