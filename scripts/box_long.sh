@@ -13,7 +13,7 @@
 #   slowramp_{up,down}_nobig_s1    the ramp ten times slower, 0.0005 Hz/s
 #   R4_gapG_sS            R = 4 cm at 3.2 Hz placed with its bottom G cm above the floor, packings 1-6
 #                         (60 s; 40 s from G = 10 on)
-#   force_f{2.6,2.8}_{big,nobig}_sS  the force ratio: 30 s, 8 frames a cycle, packings 1-6
+#   force_f{2.6,2.65,2.7,2.8}_{big,nobig}_sS  the force ratio: 30 s, 8 frames a cycle, packings 1-6
 # About 75 core-minutes on this machine.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
@@ -37,8 +37,8 @@ jobs="$dir/jobs_all.txt"
   for d in up down; do
     echo "$O/slowramp_${d}_nobig_s1.h5 $S/ramp_$d.toml --set big.enabled=false --set shaking.ramp_time=2000 --set run.duration=2020"
   done
-  for s in 1 2 3 4 5 6; do for f in 2.6 2.8; do for k in big nobig; do
-    echo "$O/force_f${f}_${k}_s$s.h5 $S/f${f}_$k.toml --set particles.seed=$s --set run.duration=30 --set run.snapshot_every_cycles=0.125"
+  for s in 1 2 3 4 5 6; do for f in 2.6 2.65 2.7 2.8; do for k in big nobig; do
+    echo "$O/force_f${f}_${k}_s$s.h5 $S/f2.8_$k.toml --set shaking.frequency=$f --set particles.seed=$s --set run.duration=30 --set run.snapshot_every_cycles=0.125"
   done; done; done
 } >"$jobs"
 CAMPAIGN_NICE="${CAMPAIGN_NICE:-5}" "$here/scripts/campaign.sh" "$jobs" "$lanes"
