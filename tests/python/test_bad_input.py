@@ -77,7 +77,7 @@ def check_message(stderr, scene, key, fragment, prefix):
 
 def test_catalogue_has_every_kind_of_fault():
     assert len(NATIVE) >= 30
-    assert {p.name.split("_")[0] for p in NATIVE} == {"drum", "box"}
+    assert {p.name.split("_")[0] for p in NATIVE} == {"drum", "box", "particles"}
     assert LAMMPS and YADE
     for path in NATIVE + LAMMPS + YADE:
         expectation(path)

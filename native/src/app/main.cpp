@@ -5,8 +5,9 @@
 //   granular info SCENE [--set key=value]... [--json]
 //   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S] [--repeat K]
 //                  [--ceiling N] [--json]
-// SCENE is a drum (Rapaport 2002) or shaken-box (Poeschel and Herrmann 1995)
-// scene file; its scene.kind picks the model. Exit status (docs/errors.md):
+// SCENE is a drum (Rapaport 2002), shaken-box (Poeschel and Herrmann 1995) or
+// particles (explicit spheres and plane walls, docs/particles_scene.md) scene
+// file; its scene.kind picks the model. Exit status (docs/errors.md):
 // 0 done, 2 refused before anything ran (bad scene, bad command line, existing
 // output without --force, nothing to resume), 3 unstable run, 130/143 stopped
 // by SIGINT/SIGTERM after writing a checkpoint, 1 any other failure.
@@ -30,6 +31,7 @@
 #include "app/openmp_wait.hpp"
 #include "engine/box.hpp"
 #include "engine/drum.hpp"
+#include "engine/particles.hpp"
 #include "engine/run_control.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
@@ -61,8 +63,9 @@ struct Loaded {
   std::string kind;
   std::optional<DrumScene> drum;
   std::optional<BoxScene> box;
+  std::optional<ParticlesScene> particles;
   std::string toml, json;
-  const std::string& name() const { return drum ? drum->name : box->name; }
+  const std::string& name() const { return drum ? drum->name : particles ? particles->name : box->name; }
 };
 
 Loaded load(const std::string& path, const std::vector<std::string>& sets) {
@@ -74,10 +77,12 @@ Loaded load(const std::string& path, const std::vector<std::string>& sets) {
     l.drum = read_drum_scene(f);
   else if (l.kind == "shaken_box")
     l.box = read_box_scene(f);
+  else if (l.kind == "particles")
+    l.particles = read_particles_scene(f);
   else {
-    const std::string guess = did_you_mean(l.kind, {"drum", "shaken_box"});
+    const std::string guess = did_you_mean(l.kind, {"drum", "shaken_box", "particles"});
     f.fail("scene.kind", "unknown value \"" + l.kind + "\"" + (guess.empty() ? "" : "; did you mean \"" + guess + "\"?") +
-                             " (allowed: \"drum\", \"shaken_box\")");
+                             " (allowed: \"drum\", \"shaken_box\", \"particles\")");
   }
   l.toml = f.resolved_toml();
   l.json = f.resolved_json();
@@ -171,6 +176,19 @@ nlohmann::json info_json(const Loaded& l) {
     } catch (const MappingError& e) {
       d["linear_law"] = {{"infeasible", e.what()}};  // refused if the scene's law needs it
     }
+  } else if (l.particles) {
+    const ParticlesScene& s = *l.particles;
+    long small = 0;
+    for (const auto& q : s.spheres) small += q.species == 0;
+    d["particles"] = s.spheres.size();
+    d["particles_small"] = small;
+    d["particles_big"] = static_cast<long>(s.spheres.size()) - small;
+    d["walls"] = s.walls.size();
+    d["source"] = s.source;
+    d["max_speed"] = s.max_speed;
+    d["release_speed"] = s.release_speed;
+    d["time_step"] = step_json(particles_step_rule(s), s.dt);
+    d["steps_total"] = s.steps_per(s.duration);
   } else {
     const BoxScene& s = *l.box;
     std::vector<Eigen::Vector2d> anchors;
@@ -264,7 +282,31 @@ void check_same_scene(const std::string& ckpt_path, const std::string& saved_jso
   }
 }
 
+// A particles scene keeps no checkpoint: it runs from its scene file alone.
+int run_particles_scene(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
+  if (o.resume)
+    throw UsageError(scene_path + ": --resume is not available for a particles scene (its runs keep no checkpoint); "
+                                  "run it again with --force");
+  if (out_path.empty()) out_path = l.name() + ".h5";
+  check_output(out_path, o.force);
+  install_stop_handlers();
+  const ParticlesScene& s = *l.particles;
+  ParticlesSim sim = make_particles(s);
+  const auto n = std::visit([](auto& v) { return v.p.size(); }, sim);
+  H5Output out(out_path, 3, static_cast<std::int64_t>(n));
+  common_attrs<3>(out, l, scene_path);
+  out.group_attr("frames", "species_names", {"small", "big"});
+  std::fprintf(stderr, "granular %s: particles %s (%s), %zu particles, %zu wall(s), %.4g time units, %d thread(s) -> %s\n",
+               kVersion, s.name.c_str(), scene_path.c_str(), n, s.walls.size(), s.duration, omp_get_max_threads(),
+               out_path.c_str());
+  const RunReport r = run_particles(s, sim, &out, !o.quiet && isatty(fileno(stderr)));
+  std::fprintf(stderr, "done: %ld steps in %.1f s, %.3g particle-steps/s\n%s", r.steps, r.seconds,
+               r.particle_steps_per_second, format_breakdown(r.breakdown).c_str());
+  return 0;
+}
+
 int run_scene(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
+  if (l.particles) return run_particles_scene(l, scene_path, out_path, o);
   if (out_path.empty()) out_path = l.name() + ".h5";
   const std::string ckpt_path = checkpoint_path(out_path);
   std::optional<CheckpointData> saved;
@@ -360,10 +402,13 @@ void write_initial(H5Output& out, const Sim& sim) {
 int init_scene(const Loaded& l, const std::string& scene_path, std::string out_path, bool force) {
   if (out_path.empty()) out_path = l.name() + "_init.h5";
   check_output(out_path, force);
-  const int dim = l.drum ? 3 : 2;
+  const int dim = l.box ? 2 : 3;
   auto emit = [&](auto& sim) {
     H5Output out(out_path, dim, static_cast<std::int64_t>(sim.p.size()));
-    if (l.drum) {
+    if (l.particles) {
+      common_attrs<3>(out, l, scene_path);
+      out.group_attr("frames", "species_names", {"small", "big"});
+    } else if (l.drum) {
       common_attrs<3>(out, l, scene_path);
       out.attr("omega", l.drum->omega);
       out.attr("rotation_period", l.drum->rotation_period());
@@ -382,6 +427,9 @@ int init_scene(const Loaded& l, const std::string& scene_path, std::string out_p
   };
   if (l.drum) {
     DrumSim sim = make_drum(*l.drum);
+    std::visit(emit, sim);
+  } else if (l.particles) {
+    ParticlesSim sim = make_particles(*l.particles);
     std::visit(emit, sim);
   } else {
     BoxSim sim = make_box(*l.box);
@@ -621,6 +669,7 @@ int main(int argc, char** argv) {
     }
     if (*bench) {
       const Loaded l = load(scene_path, sets);
+      if (l.particles) throw UsageError(scene_path + ": granular bench times drum and shaken-box scenes only");
       if (bench_threads.empty()) bench_threads = {1, omp_get_num_procs()};
       return run_bench(l, bench_threads, repeat, ceiling, settle, l.drum ? bench_rot : bench_seconds, bench_json);
     }

@@ -9,6 +9,7 @@
 #include <sstream>
 #include <type_traits>
 
+#include "engine/contact_setup.hpp"
 #include "engine/coulomb_census.hpp"
 #include "engine/health.hpp"
 #include "engine/run_control.hpp"
@@ -22,29 +23,8 @@ namespace {
 template <class Sim>
 void configure_common(Sim& sim, const DrumScene& s) {
   sim.p = drum_particles(s);
-  constexpr bool viscel = std::is_same_v<decltype(sim.law), ViscElLaw<3>>;
-  constexpr bool linear = std::is_same_v<decltype(sim.law), LinearLaw<3>> || viscel;
-  // Linear law: contact diameters 2^(1/6) d, walls moved in by 2^(1/6) d_w / 2,
-  // zero wall thickness (scene/law_mapping.hpp); masses unchanged, inertia
-  // kappa m d^2 / 2 of the contact diameter (LAMMPS: 2/5 m r^2).
-  double d_wall = s.wall_diameter, inset = 0.0;
-  if constexpr (linear) {
-    const LinearMapping map = map_rapaport_to_linear(s);
-    if constexpr (viscel)
-      sim.law = map_linear_to_viscel(s, map).law;  // the same geometry, YADE's law
-    else
-      sim.law = map.law;
-    for (std::size_t i = 0; i < sim.p.size(); ++i) {
-      sim.p.d[i] *= map.diameter_scale;
-      const double m = 1.0 / sim.p.inv_m[i], d = sim.p.d[i];
-      sim.p.inv_i[i] = 1.0 / (0.5 * s.kappa * m * d * d);
-    }
-    d_wall = 0.0;
-    inset = map.wall_inset;
-  } else {
-    sim.law = RapaportLaw<3>::from_paper(s.gamma_n, s.gamma_s_bb, s.gamma_s_ss, s.gamma_s_bw, s.gamma_s_sw,
-                                         s.mu_max);
-  }
+  const WallGeometry wg = set_contact_law(sim, mapping_inputs(s), s.kappa);
+  const double d_wall = wg.d_wall, inset = wg.inset;
   const double half_d = 0.5 * s.diameter, margin = 2.0;
   sim.box.lo = Eigen::Vector3d(-half_d - margin, -0.5 * s.length, -half_d - margin);
   sim.box.hi = Eigen::Vector3d(half_d + margin, 0.5 * s.length, half_d + margin);

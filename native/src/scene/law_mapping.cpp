@@ -65,24 +65,46 @@ LinearNormal linear_matching(const Collision& c) {
   return {w * w + beta * beta, 2.0 * beta};
 }
 
-LinearMapping map_rapaport_to_linear(const DrumScene& s) {
+MappingInputs mapping_inputs(const DrumScene& s) {
+  MappingInputs in;
+  in.d[0] = s.small_diameter - 0.5 * s.diameter_spread;
+  in.d[1] = s.big_diameter - 0.5 * s.diameter_spread;
+  in.wall_diameter = s.wall_diameter;
+  in.gamma_n = s.gamma_n;
+  in.mu_max = s.mu_max;
+  in.gamma_s_bb = s.gamma_s_bb;
+  in.gamma_s_ss = s.gamma_s_ss;
+  in.gamma_s_bw = s.gamma_s_bw;
+  in.gamma_s_sw = s.gamma_s_sw;
+  in.impact_speed = s.impact_speed;
+  in.gravity = s.gravity;
+  in.load_height = 0.5 * s.diameter;
+  return in;
+}
+
+double rapaport_stiffness(double dij, double force) {
+  if (force > 0.0) return force / rapaport_overlap(dij, force);
+  const double rc = RapaportLaw<3>::kCutFactor * dij;
+  return 72.0 / (rc * rc);
+}
+
+LinearMapping map_rapaport_to_linear(const MappingInputs& in) {
   LinearMapping m;
-  m.impact_speed = s.impact_speed;
+  m.impact_speed = in.impact_speed;
   m.diameter_scale = RapaportLaw<3>::kCutFactor;
-  m.wall_inset = 0.5 * RapaportLaw<3>::kCutFactor * s.wall_diameter;
-  const RapaportLaw<3> rap =
-      RapaportLaw<3>::from_paper(s.gamma_n, s.gamma_s_bb, s.gamma_s_ss, s.gamma_s_bw, s.gamma_s_sw, s.mu_max);
-  const double d[2] = {s.small_diameter - 0.5 * s.diameter_spread, s.big_diameter - 0.5 * s.diameter_spread};
+  m.wall_inset = 0.5 * RapaportLaw<3>::kCutFactor * in.wall_diameter;
+  const RapaportLaw<3> rap = in.rapaport();
+  const double* d = in.d;
   const double mass[2] = {d[0] * d[0] * d[0], d[1] * d[1] * d[1]};
-  // F*: the weight of a column of mean grains D/2 high.
+  // F*: the weight of a column of mean grains load_height high.
   const double dbar = 0.5 * (d[0] + d[1]), mbar = 0.5 * (mass[0] + mass[1]);
-  m.static_load = s.gravity * mbar * (0.5 * s.diameter) / dbar;
+  m.static_load = in.gravity * mbar * in.load_height / dbar;
   auto fill = [&](LinearLaw<3>::Coeff& c, double dij, const Collision& col, double meff,
                   const RapaportLaw<3>::Friction& fr) {
     // k_n: the same overlap under F*; g_n: the same restitution e. For the
     // linear law e = exp(-beta pi / omega), omega^2 = k_n/m_eff - beta^2,
     // beta = g_n/2, so beta = |ln e| sqrt(k_n/m_eff) / sqrt(pi^2 + ln^2 e).
-    c.kn = m.static_load / rapaport_overlap(dij, m.static_load);
+    c.kn = rapaport_stiffness(dij, m.static_load);
     const double le = std::log(col.restitution), k1 = c.kn / meff;
     c.gamma_n = 2.0 * std::abs(le) * std::sqrt(k1) / std::sqrt(M_PI * M_PI + le * le);
     // Rapaport's sliding force gamma_s |v_s| is not mass weighted; LAMMPS's is
@@ -97,22 +119,22 @@ LinearMapping map_rapaport_to_linear(const DrumScene& s) {
       const double meff = mass[a] * mass[b] / (mass[a] + mass[b]);
       m.pair_meff[k] = meff;
       const double dij = 0.5 * (d[a] + d[b]);
-      m.pair_collision[k] = rapaport_collision(dij, meff, s.gamma_n, s.impact_speed);
+      m.pair_collision[k] = rapaport_collision(dij, meff, in.gamma_n, in.impact_speed);
       m.pair_linear[k] = fill(m.law.pair[a * 2 + b], dij, m.pair_collision[k], meff, rap.pair[a * 2 + b]);
       m.law.pair[b * 2 + a] = m.law.pair[a * 2 + b];
     }
   for (int a = 0; a < 2; ++a) {
     m.wall_meff[a] = mass[a];
-    const double diw = 0.5 * (d[a] + s.wall_diameter);
-    m.wall_collision[a] = rapaport_collision(diw, mass[a], s.gamma_n, s.impact_speed);
+    const double diw = 0.5 * (d[a] + in.wall_diameter);
+    m.wall_collision[a] = rapaport_collision(diw, mass[a], in.gamma_n, in.impact_speed);
     m.wall_linear[a] = fill(m.law.wall[a], diw, m.wall_collision[a], mass[a], rap.wall[a]);
   }
   return m;
 }
 
-ViscElMapping map_linear_to_viscel(const DrumScene& s, const LinearMapping& lin) {
+ViscElMapping map_linear_to_viscel(const MappingInputs& in, const LinearMapping& lin) {
   ViscElMapping v;
-  const double d[2] = {s.small_diameter - 0.5 * s.diameter_spread, s.big_diameter - 0.5 * s.diameter_spread};
+  const double* d = in.d;
   const char* name[2] = {"small", "big"};
   for (int a = 0; a < 2; ++a) {
     v.mean_mass[a] = d[a] * d[a] * d[a];

@@ -65,8 +65,36 @@ struct LinearMapping {
   double pair_meff[3] = {0, 0, 0}, wall_meff[2] = {0, 0};
 };
 
-// Uses each species' mean diameter d - spread/2 and mass d^3.
-LinearMapping map_rapaport_to_linear(const DrumScene& s);
+// What the mapping reads from a scene: each species' representative diameter
+// (its mass d^3, Sec. III), the wall's diameter d_w, Rapaport's coefficients,
+// the impact speed at which the collisions are matched, and the length that
+// sets the static load F* = g m_bar (load_height / d_bar), the weight of a
+// column of mean grains load_height high (F* = 0 without gravity: the springs
+// then take Rapaport's stiffness at first touch, rapaport_stiffness).
+struct MappingInputs {
+  double d[2] = {1.0, 1.3};  // [small, big]
+  double wall_diameter = 1.0;
+  double gamma_n = 5.0, mu_max = 0.5;
+  double gamma_s_bb = 0.0, gamma_s_ss = 0.0, gamma_s_bw = 0.0, gamma_s_sw = 0.0;
+  double impact_speed = 1.0;
+  double gravity = 0.0;
+  double load_height = 0.0;
+  RapaportLaw<3> rapaport() const {
+    return RapaportLaw<3>::from_paper(gamma_n, gamma_s_bb, gamma_s_ss, gamma_s_bw, gamma_s_sw, mu_max);
+  }
+};
+
+// The drum's: each species' mean diameter d - spread/2, the load of a column
+// D/2 high.
+MappingInputs mapping_inputs(const DrumScene& s);
+
+// The secant stiffness F / overlap of Rapaport's elastic force (Eq. (1)) under
+// the load F; at F = 0 its limit, the slope where f_v vanishes,
+// -f_v'(2^(1/6) d_ij) = 72 / (2^(1/6) d_ij)^2.
+double rapaport_stiffness(double dij, double force);
+
+LinearMapping map_rapaport_to_linear(const MappingInputs& in);
+inline LinearMapping map_rapaport_to_linear(const DrumScene& s) { return map_rapaport_to_linear(mapping_inputs(s)); }
 
 // YADE's viscoelastic law (contact/viscel.hpp) as near to the linear law as
 // YADE's mixing rule allows (docs/model_mapping.md, "YADE"). Per species s
@@ -81,6 +109,9 @@ struct ViscElMapping {
   double mean_mass[2] = {0, 0};
   std::vector<std::string> infeasible;
 };
-ViscElMapping map_linear_to_viscel(const DrumScene& s, const LinearMapping& lin);
+ViscElMapping map_linear_to_viscel(const MappingInputs& in, const LinearMapping& lin);
+inline ViscElMapping map_linear_to_viscel(const DrumScene& s, const LinearMapping& lin) {
+  return map_linear_to_viscel(mapping_inputs(s), lin);
+}
 
 }  // namespace granular

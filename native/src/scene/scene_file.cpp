@@ -203,6 +203,11 @@ void SceneFile::fail(const std::string& key, const std::string& reason) const {
   throw SceneError(path_, line_of(key), overridden_.count(key) ? key + " (--set)" : key, reason);
 }
 
+void SceneFile::fail_at(long line, const std::string& key, const std::string& reason) const {
+  if (line <= 0 || overridden_.count(key)) fail(key, reason);
+  throw SceneError(path_, line, key, reason);
+}
+
 void SceneFile::missing(const std::string& key) const {
   // A value where the key needs a table ("drum = 3" for drum.length).
   const auto parts = split_key(key);
@@ -305,6 +310,14 @@ bool SceneFile::flag(const std::string& key, bool fallback) {
   const auto* n = find(key);
   if (n->is_boolean()) return n->as_boolean()->get();
   fail(key, "must be true or false, got " + describe(*n));
+}
+
+const toml::array& SceneFile::array(const std::string& key) {
+  const auto* n = find(key);
+  if (!n) missing(key);
+  used_.insert(key);
+  if (const auto* a = n->as_array()) return *a;
+  fail(key, "must be an array, got " + describe(*n));
 }
 
 std::string number_text(double v) {

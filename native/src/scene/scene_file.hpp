@@ -55,6 +55,9 @@ class SceneFile {
   std::string choice(const std::string& key, const std::vector<std::string>& allowed);
   std::string choice(const std::string& key, const std::vector<std::string>& allowed, const std::string& fallback);
   bool flag(const std::string& key, bool fallback);
+  // An array (of values, inline tables or tables: [[wall]]); its elements are
+  // the caller's to check, naming the key and the element's line (fail_at).
+  const toml::array& array(const std::string& key);
   bool has(const std::string& key) const;
   // A string value without marking the key as read (to choose the scene reader).
   std::string peek_text(const std::string& key) const;
@@ -69,6 +72,9 @@ class SceneFile {
   double positive(const std::string& key, double v) const;
   double non_negative(const std::string& key, double v) const;
   [[noreturn]] void fail(const std::string& key, const std::string& reason) const;
+  // The same at a given line of the file (an element of an array), or at the
+  // key's own line where `line` is 0.
+  [[noreturn]] void fail_at(long line, const std::string& key, const std::string& reason) const;
 
   // After every reader ran: any key present but never read is an error, with
   // the nearest key the reader knows as a suggestion.

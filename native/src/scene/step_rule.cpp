@@ -6,6 +6,7 @@
 #include "contact/rapaport.hpp"
 #include "scene/box_scene.hpp"
 #include "scene/drum_scene.hpp"
+#include "scene/particles_scene.hpp"
 
 namespace granular {
 
@@ -58,6 +59,20 @@ StepRule drum_step_rule(const DrumScene& s) {
   const double m = d * d * d;  // m_i = d_i^3 (Sec. III)
   r.contact_time = std::min(rapaport_contact_bound(d, 0.5 * m, s.gamma_n, r.impact_speed),
                             rapaport_contact_bound(0.5 * (d + s.wall_diameter), m, s.gamma_n, r.impact_speed));
+  return finish(r);
+}
+
+StepRule particles_step_rule(const ParticlesScene& s) {
+  StepRule r;
+  r.accuracy_step = kDrumAccuracyStep;
+  r.steps_per_contact = kDrumStepsPerContact;
+  const double v = s.max_speed + s.release_speed + std::sqrt(2.0 * s.gravity * s.height);
+  r.impact_speed = std::max(2.0 * v, 1e-3);  // two particles head-on
+  const double d = s.d_min, m = d * d * d;   // the lightest particle, m_i = d_i^3 (Sec. III)
+  r.contact_time = rapaport_contact_bound(d, 0.5 * m, s.gamma_n, r.impact_speed);
+  if (!s.walls.empty())
+    r.contact_time = std::min(r.contact_time, rapaport_contact_bound(0.5 * (d + s.wall_diameter), m, s.gamma_n,
+                                                                     std::max(v, 1e-3)));
   return finish(r);
 }
 

@@ -13,6 +13,14 @@
 // point under Eqs. (1)-(2) (the whole contact when gamma_n = 0; a bound below it
 // otherwise, and defined when the collision is overdamped).
 //
+// Particles scene. The drum's rule at the fastest impact the initial state
+// can produce: each particle at most as fast as the fastest one, plus the speed
+// the initial overlaps' energy would give the lightest (release_speed), plus
+// free fall across the particles' height under gravity; two such particles
+// meet head-on at twice that speed, a particle hits a wall at that speed. The
+// contacts are timed for two of the smallest particles and the smallest on a
+// wall (when the scene has walls).
+//
 // Box. The paper's linear spring-dashpot (Eq. (2) of Poeschel & Herrmann) has
 // a contact period independent of the impact speed: pi / sqrt(Y/m_eff - (gamma_N/2)^2)
 // for two of the lightest grains.
@@ -24,6 +32,7 @@ namespace granular {
 
 struct DrumScene;
 struct BoxScene;
+struct ParticlesScene;
 
 struct StepRule {
   double accuracy_step = 0.0;      // the largest step the scene's observables allow
@@ -52,5 +61,6 @@ double rapaport_contact_bound(double dij, double meff, double gamma_n, double v)
 // Fields of the scene read before integrator.dt (scene/drum_scene.cpp, box_scene.cpp).
 StepRule drum_step_rule(const DrumScene& s);
 StepRule box_step_rule(const BoxScene& s);
+StepRule particles_step_rule(const ParticlesScene& s);
 
 }  // namespace granular
