@@ -14,6 +14,7 @@
     python3 -m compare box-placement RUN...             the big disk's start height against its waiting time
     python3 -m compare box-forces --big RUN... --nobig RUN...   the force ratio under each reading
     python3 -m compare views RUN.h5 -o OUT.png          the particles seen from above, below, obliquely
+    python3 -m compare impacts [-o DIR]                 Chung & Ooi's impacts per contact law, with analytic limits
 
 
 Expected failures (missing file, wrong schema, not a drum) print one line to
@@ -144,7 +145,14 @@ def main(argv=None):
     vw.add_argument("--frame", type=int, default=-1, help="frame index (default: the last)")
     vw.add_argument("--view", default="top,bottom", help="comma-separated views: top, bottom, oblique")
     vw.add_argument("--no-species", action="store_true", help="leave out the small-only and big-only rows")
+    im = sub.add_parser("impacts", help="Chung & Ooi's benchmark impacts per contact law, with analytic limits")
+    im.add_argument("-o", "--output", default="out/impacts", help="directory: runs/, impacts.json, impacts.png")
     args = parser.parse_args(argv)
+
+    if args.command == "impacts":
+        from .impacts import impacts, markdown
+        print(markdown(impacts(args.output)), end="")
+        return 0
 
     if args.command == "views":
         from .views import write_views
