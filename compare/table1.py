@@ -328,20 +328,17 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
 
 
 def campaign_status(campaign_dir):
-    """One line per Table I run of a campaign directory (scripts/table1_campaign.sh):
-    rotations reached against requested, and whether it finished, runs or failed."""
-    import json
-
+    """One line per run of a campaign directory (scripts/table1_campaign.sh):
+    the Table I runs, then the step check's (runs/step/): rotations reached
+    against requested, and whether it finished, runs or failed."""
     from .reader import open_h5
 
     os.environ.setdefault("HDF5_USE_FILE_LOCKING", "FALSE")
     runs = Path(campaign_dir) / "runs"
-    lines = [f"{'run':4} {'reached':>9} {'of':>7}  state"]
-    for rid in IDS:
-        path = runs / f"{rid}.h5"
+
+    def line(name, path):
         if not path.exists():
-            lines.append(f"{rid:4} {'-':>9} {'-':>7}  waiting")
-            continue
+            return f"{name:14} {'-':>9} {'-':>7}  waiting"
         try:
             with open_h5(path) as h5:
                 scene = json.loads(h5.attrs["scene_json"])
@@ -349,11 +346,14 @@ def campaign_status(campaign_dir):
                 t = h5["profile/time"]
                 reached = float(t[t.shape[0] - 1]) / period if t.shape[0] else 0.0
         except (OSError, KeyError, ValueError) as exc:
-            lines.append(f"{rid:4} {'?':>9} {'?':>7}  unreadable ({exc})")
-            continue
+            return f"{name:14} {'?':>9} {'?':>7}  unreadable ({exc})"
         log = path.with_suffix(".log")
         text = log.read_text(errors="replace") if log.exists() else ""
-        state = ("done" if (runs / f"{rid}.h5.done").exists()
+        state = ("done" if path.with_name(path.name + ".done").exists()
                  else "failed" if "unstable" in text or "error" in text else "running or stopped")
-        lines.append(f"{rid:4} {reached:9.1f} {scene['run']['rotations']:7g}  {state}")
+        return f"{name:14} {reached:9.1f} {scene['run']['rotations']:7g}  {state}"
+
+    lines = [f"{'run':14} {'reached':>9} {'of':>7}  state"]
+    lines += [line(rid, runs / f"{rid}.h5") for rid in IDS]
+    lines += [line(p.stem, p) for p in sorted((runs / "step").glob("*.h5"))]
     return "\n".join(lines)
