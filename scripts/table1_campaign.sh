@@ -27,6 +27,7 @@ lanes="${2:-2}"
 if ((status)); then
   [ -e "$dir/COMMIT" ] || { echo "no campaign in $dir" >&2; exit 2; }
   echo "campaign in $dir, commit $(cat "$dir/COMMIT")"
+  cd "$here"
   exec /usr/bin/python3 -m compare campaign-status "$dir"
 fi
 
