@@ -17,7 +17,7 @@
 # About 75 core-minutes on this machine.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
-dir="${1:-/var/lib/granular/box}"
+dir="$(realpath -m "${1:-/var/lib/granular/box}")"
 lanes="${2:-2}"
 S="$here/scenes/box"
 O="$dir/runs"

@@ -21,7 +21,7 @@ set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 status=0
 if [ "${1:-}" = "--status" ]; then status=1; shift; fi
-dir="${1:-/var/lib/granular/table1}"
+dir="$(realpath -m "${1:-/var/lib/granular/table1}")"
 lanes="${2:-2}"
 
 if ((status)); then
