@@ -60,3 +60,25 @@ def test_interrupted_job_resumes_to_the_same_end(tmp_path):
     p = campaign(jobs)
     p.wait(timeout=60)
     assert out.stat().st_mtime_ns == mtime
+
+
+def test_campaign_status_lists_reached_rotations(tmp_path):
+    """`compare campaign-status DIR` gives each Table I run's rotations reached
+    against requested and its state, and the step check's runs after them."""
+    runs = tmp_path / "runs"
+    (runs / "step").mkdir(parents=True)
+    common = [str(BIN), "run", str(SCENE), "--threads", "1", "-q", "--set", "drum.length=32",
+              "--set", "run.snapshot_every=0.25", "--set", "run.profile_every=0.25"]
+    subprocess.run(common + ["-o", str(runs / "C.h5"), "--set", "run.rotations=0.5"], check=True,
+                   capture_output=True, timeout=300)
+    (runs / "C.h5.done").touch()
+    subprocess.run(common + ["-o", str(runs / "step" / "A_dt0.005_s1.h5"), "--set", "run.rotations=0.25"],
+                   check=True, capture_output=True, timeout=300)
+    r = subprocess.run(["/usr/bin/python3", "-m", "compare", "campaign-status", str(tmp_path)], cwd=ROOT,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    rows = {ln.split()[0]: ln.split()[1:] for ln in r.stdout.splitlines()[1:]}
+    assert rows["C"][:2] == ["0.5", "0.5"] and rows["C"][2] == "done"
+    assert rows["A"][0] == "-" and "waiting" in rows["A"]
+    step = rows["A_dt0.005_s1"]
+    assert float(step[0]) == pytest.approx(0.25, abs=0.06) and step[1] == "0.25" and "running" in step
