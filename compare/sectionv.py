@@ -107,9 +107,12 @@ def band_speed(t, y, phi, mean, window=1000.0, smoothing=2.0, central=(0.25, 0.7
 def end_species(row, mean, n_slices=4):
     """Which species fills each end of a capped drum: "big" when the mean
     small fraction of the ``n_slices`` slices next to the cap is below the
-    drum's, else "small". Returns (left, right)."""
+    drum's, else "small". Returns (left, right). The slice against the cap is
+    left out: only centres of grains that fit that close to the flat cap lie
+    in it, mostly small ones, whatever band is there."""
     row = _filled(row, mean)
-    return tuple("big" if np.nanmean(part) < mean else "small" for part in (row[:n_slices], row[-n_slices:]))
+    ends = (row[1:1 + n_slices], row[-1 - n_slices:-1])
+    return tuple("big" if np.nanmean(part) < mean else "small" for part in ends)
 
 
 def contrast(phi, mean, smoothing=2.0, periodic=True):
@@ -147,7 +150,8 @@ def section_v(run, obs):
         order = obs["formation"].smoothed
         out["mixing_time"] = lasting_below(obs["formation"].time_rotations, order, obs["formation"].threshold)
     if not periodic:
-        out["ends_last_tenth"] = [end_species(phi[k], mean) for k in np.nonzero(last)[0][-1:]][0]
+        with np.errstate(invalid="ignore"):  # a slice empty in every row stays NaN
+            out["ends_last_tenth"] = end_species(np.nanmean(phi[last], axis=0), mean)
         out["band_count_odd"] = bool((obs["bands"].final or 0) % 2 == 1)
     speed, slopes = band_speed(t, y, phi, mean)
     out["band_speed_median"] = speed

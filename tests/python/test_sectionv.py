@@ -53,5 +53,9 @@ def test_end_species_and_contrast():
     phi = np.where(np.abs(Y) < 30, 1.0, 0.0)
     assert end_species(phi, 0.5) == ("big", "big")
     assert end_species(1 - phi, 0.5) == ("small", "small")
+    # the slice against each cap holds the grains that fit closest to it, small ones: not the end band
+    capped = phi.copy()
+    capped[0] = capped[-1] = 1.0
+    assert end_species(capped, 0.5) == ("big", "big")
     assert contrast(np.full_like(Y, 0.5), 0.5) == pytest.approx(0.0)
     assert contrast(phi, 0.5, smoothing=0.5) > 0.45
