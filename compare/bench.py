@@ -150,9 +150,10 @@ def yade_cases(threads=(1, 2)) -> list[Case]:
 # (36.4 particles per unit length), each with its runs per round. Every size
 # times the same stretch of the flow (the round's rotations after the same
 # settling): the drum's contacts and list builds per step change as it runs
-# (docs/speed_accuracy.md, stops 24-25), so longer stretches for the small
-# drums compared their later flow with the large drum's earlier one (stop
-# 34: 1.19-1.21 that way, 1.10-1.14 over the same stretch). The small drums
+# (docs/speed_accuracy.md, "One settled state per round"), so longer stretches
+# for the small drums compared their later flow with the large drum's earlier
+# one (largest over smallest cost 1.19-1.21 that way, 1.10-1.14 over the same
+# stretch). The small drums
 # repeat it instead, for at least 10^7 particle-steps (a second) per round.
 SCALING_LENGTHS = {28: 10, 280: 2, 2800: 1}
 

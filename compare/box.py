@@ -14,7 +14,8 @@ raise RuntimeError before ``compute``, ``plot(ax=None)`` returns the axis,
 
 plus :func:`onset_fraction` / :func:`onset_threshold` for the onset frequency
 and :func:`observe_box` that collects everything of one run as a dict.
-Definitions and the reasons for the defaults: docs/observables_box.md.
+Definitions and the reasons for the defaults: docs/observables.md, "Shaken-box
+observables".
 
 Data read here beyond :func:`compare.reader.read_run`: ``/frames/force`` and
 ``/trace`` (read with h5py from ``run.path``, columns matched by particle id).

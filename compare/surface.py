@@ -1,8 +1,8 @@
 """Free surface of the granular bed in the rotating drum and its slope angle
 (Rapaport 2002, Fig. 9: "axially averaged surface heights across the system").
 
-Definition (also in docs/observables_surface.md)
-------------------------------------------------
+Definition (also in docs/observables.md, "Free surface and slope angle")
+-------------------------------------------------------------------------
 Coordinates: the drum axis is y, gravity is -z, and x runs across the drum
 (perpendicular to the axis and to gravity).
 

@@ -43,7 +43,7 @@ using Clock = std::chrono::steady_clock;
 // the first lines of the next share, which the other thread is writing, and
 // that costs this loop 1.2-1.9 times (tested with gaps of 0, 16, 64-512
 // doubles: 64 removes it). The engine's blocks touch; reversing one thread's
-// sweeps there changed nothing (docs/speed_accuracy.md, stop 27).
+// sweeps there changed nothing (docs/speed_accuracy.md, "The threads' blocks").
 constexpr std::size_t kGap = 128;
 
 // One step's work on particles [a, e) of the columns c.
@@ -91,7 +91,7 @@ double stream(std::size_t n, long steps, int threads, bool meet) {
 // forces for those particles), which thread 1 reads after the second
 // meeting. Each half's pass is split in two around the first meeting. With
 // no lines this is the two meetings alone. The shaken box at 3 Hz exchanges
-// about 36 lines one way and 25 the other (docs/speed_accuracy.md, stop 46).
+// about 36 lines one way and 25 the other (docs/speed_accuracy.md, "The threads' blocks").
 double halo(std::size_t n, long steps, std::size_t out, std::size_t back) {
   constexpr int kColumns = 10;
   constexpr std::size_t kLine = 8;  // doubles

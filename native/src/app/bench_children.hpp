@@ -3,7 +3,7 @@
 // the identical stretch of the same flow, the runs of one round seconds apart:
 // a comparison of two thread counts then sees one machine, not two moments of
 // a host whose cores change speed by up to a third for seconds at a time
-// (docs/speed_accuracy.md, stops 37 and 38). A child holds one simulation, as a run
+// (docs/speed_accuracy.md, "One settled state per round"). A child holds one simulation, as a run
 // does, so its peak resident memory is a run's.
 //
 // The parent settles on one thread and so has started no OpenMP worker (a

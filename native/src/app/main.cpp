@@ -489,7 +489,7 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
     // writes copy them, a page fault each (with two threads, likely also a
     // flush of the other core's address map). Timed from the first step, a
     // 2-thread drum run lost 1-12 % (8 of 8 rounds) against the same run in
-    // one process; with this start, 0.99 (docs/speed_accuracy.md, stop 38).
+    // one process; with this start, 0.99 (docs/speed_accuracy.md, "One settled state per round").
     // Its buffers take their size for the thread count here too, as a run's
     // do in its first steps.
     stretch(kWarm * span);

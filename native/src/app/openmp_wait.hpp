@@ -11,7 +11,7 @@
 // (3 tries each);
 // with GOMP_SPINCOUNT=1000, 2.3-2.8 s and 2.3-2.6 s in 7 tries each. Alone
 // on the cores, a run measured the same either way, within the host's noise
-// (docs/speed_accuracy.md, stop 39).
+// (docs/speed_accuracy.md, "Threads on a shared machine").
 //
 // libgomp reads its environment once, when it loads, before main runs; and a
 // function in the executable's .preinit_array, which runs earlier, cannot yet

@@ -5,7 +5,7 @@
 // loop adds them to the particles: the square roots and divisions of a
 // contact then run side by side in SIMD lanes instead of as one dependent
 // chain per contact. A law's batch kernel computes exactly what its
-// pair_force computes (tests/native/test_pair_batch.cpp).
+// pair_force computes (tests/native/test_batch_kernels.cpp).
 #pragma once
 #include <algorithm>
 #include <cmath>

@@ -6,7 +6,7 @@
 // are the identity and compile to nothing, so the shaken box and the capped
 // drum pay nothing for the periodic drum's wrap. Box 3 Hz, 1 thread, 6
 // alternated runs: 1.15 times the rate of a box that multiplied every
-// separation by 0 and rounded it (docs/speed_accuracy.md, stop 40). Which
+// separation by 0 and rounded it (docs/speed_accuracy.md, "Periodic axes"). Which
 // axes wrap is set at run time (periodic), and only in a periodic box.
 #pragma once
 #include <array>

@@ -6,7 +6,7 @@
 // for about as long as libgomp's waiting threads do in this program
 // (app/openmp_wait.hpp: GOMP_SPINCOUNT=1000, some 30 microseconds here), then
 // sleeps on a futex, giving its core to whatever else the machine has to run.
-// Measured on this 2-core host (docs/speed_accuracy.md, stop 39), two 2-thread
+// Measured on this 2-core host (docs/speed_accuracy.md, "Threads on a shared machine"), two 2-thread
 // runs of a 528-particle drum at once (0.6 s each alone):
 //   - spinning only: 27-65 s each, since the thread being waited for may be
 //     queued behind the spinner on the same core, and each wait then lasts a

@@ -2,11 +2,11 @@
 // tasks (engine/simulation.hpp, run_tails), chosen by timing both.
 //
 // Taking them evens the threads out when one core runs slower for a while
-// (docs/speed_accuracy.md, stop 37: 10-27 % on the box). But a task taken
+// (10-27 % on the box; docs/speed_accuracy.md, "Tail tasks"). But a task taken
 // reads the owner's particles and writes its buffer, and the owner then adds
 // the buffer and moves those particles: every such cache line crosses
 // between the cores twice a step. When the host makes that dear (its slow
-// state, stop 44), taking tasks costs more than it saves: box 3 Hz, 2
+// state), taking tasks costs more than it saves: box 3 Hz, 2
 // threads, 3.3-3.4 against 4.1-4.7·10^7 particle-steps/s without. Which one
 // wins changes with the host's state, for seconds at a time, so the engine
 // times both: a window with, a window without, then kExploit windows of the

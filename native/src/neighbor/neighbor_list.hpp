@@ -37,7 +37,7 @@ class NeighborList {
   // listed pairs, few contacts) weigh more than the timers' split says. Box
   // 3 Hz, 2 threads, 6 interleaved rounds: 5.31 against 5.11·10⁷
   // particle-steps/s at 9; drum #A the same within its rounds' spread
-  // (docs/speed_accuracy.md, stop 29). The particle's own share (its
+  // (docs/speed_accuracy.md, "The threads' blocks"). The particle's own share (its
   // integration, walls and ghost sums) comes from the caller:
   // build(particle_weight).
   static constexpr std::uint32_t kContactWeight = 5;
@@ -107,7 +107,7 @@ class NeighborList {
     // large. Eight running maxima and counts, which the compiler keeps in
     // vector lanes: one chain of maxima, each waiting for the last, took
     // the serial start of a build in the shaken box 4 us (docs/speed_accuracy.md,
-    // stop 45). A maximum is exact in any order: the same classes.
+    // "The neighbour list"). A maximum is exact in any order: the same classes.
     constexpr std::size_t kLanes = 8;
     const double* dp = p.d.data();
     std::array<double, kLanes> lane_max{}, lane_small{};
@@ -277,7 +277,7 @@ class NeighborList {
           // contiguous in c) without a write: a vector reduction. Testing
           // the columns a row at a time (4.5 a row on the drum) cost the
           // drum's thread 0 25 us a build, 10 this way (docs/speed_accuracy.md,
-          // stop 45).
+          // "The neighbour list").
           const std::size_t core_e = std::min(e, core);
           for (std::size_t i = a; i < core_e;) {
             const std::size_t i1 = std::min(core_e, i + kMarkRows);

@@ -93,7 +93,7 @@ BoxScene read_fields(SceneFile& f) {
   // The skin changes no force, only the cost (the list is exact at any skin).
   // 1.0 cm measured fastest, 11 % over 0.5 cm on 1 and 2 threads, once the
   // grains' cells no longer follow the big disk (docs/speed_accuracy.md,
-  // stop 28; builds every 18 steps instead of every 9).
+  // "The neighbour list"; builds every 18 steps instead of every 9).
   s.skin = f.positive("neighbor.skin", f.number("neighbor.skin", 1.0));
 
   s.settle = f.non_negative("run.settle", f.number("run.settle", 1.0));
