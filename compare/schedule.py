@@ -35,6 +35,22 @@ def drum_schedule(scene: dict):
     return total, snap_steps, prof_steps, edges
 
 
+
+def particles_schedule(scene: dict):
+    """(total steps, snapshot steps) of a particles scene, as engine/particles.cpp
+    writes its frames: at each multiple of run.snapshot_every rounded to the
+    nearest step (ParticlesScene::steps_per), and the last step."""
+    run, dt = scene["run"], float(scene["integrator"]["dt"])
+    steps_per = lambda t: lround(t / dt)  # noqa: E731
+    total = steps_per(float(run["duration"]))
+    every = float(run.get("snapshot_every", float(run["duration"]) / 100.0))
+    snaps, j = set(), 0
+    while steps_per(j * every) <= total:
+        snaps.add(steps_per(j * every))
+        j += 1
+    snaps.add(total)
+    return total, snaps
+
 class Shaker:
     """y_box(t) = A s(t) sin(phi(t)) and its velocity, as ShakerMotion
     (integrate/motion.hpp): phi = 2 pi int f dt' from the start of shaking,

@@ -2,8 +2,9 @@
 python3 -m lammps_cases bench SCENE [--set key=value]... [--np N] [--json]
 
 `run` runs a scene file from scenes/ in LAMMPS and writes the common HDF5
-schema. --np N runs under mpirun with N ranks (the drum's processor grid is
-split along its axis).
+schema. Drum and particles scenes run the linear law mapped from Rapaport's
+(contact.law is set to "linear"). --np N runs under mpirun with N ranks (the
+drum's processor grid is split along its axis).
 
 `bench` measures atom-steps/s as `granular bench` does for the native engine:
 the scene settles (the drum --settle rotations, the box its settling time plus
@@ -19,7 +20,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from .scene import ROOT, SceneRefused, is_drum, lammps_version, load_initial, refusal_message
+from .scene import ROOT, SceneRefused, is_drum, lammps_version, load_initial, refusal_message, scene_kind
 
 
 def main(argv=None):
@@ -61,9 +62,13 @@ def main(argv=None):
         return 2
     # The scene is resolved and checked once, before LAMMPS (or mpirun) starts.
     try:
-        ini = load_initial(args.scene, args.set, extra_sets=["contact.law=linear"] if is_drum(args.scene) else [])
+        # the drum and the particles scenes run the linear law mapped from Rapaport's
+        ini = load_initial(args.scene, args.set,
+                           extra_sets=["contact.law=linear"] if scene_kind(args.scene) in ("drum", "particles") else [])
         if ini.kind == "drum":
             from .drum import refuse_unrepresentable, run
+        elif ini.kind == "particles":
+            from .particles import refuse_unrepresentable, run
         else:
             from .box import refuse_unrepresentable, run
         refuse_unrepresentable(ini)

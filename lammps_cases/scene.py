@@ -120,15 +120,21 @@ def load_initial(scene_path, sets=(), extra_sets=()) -> Initial:
                            mass=ini["mass"][:].ravel()[order], inertia=ini["inertia"][:].ravel()[order])
 
 
-def is_drum(scene) -> bool:
-    """Whether a scene file is a drum (the drivers then map Rapaport's law);
-    an unreadable file is left for `granular init` to report."""
+def scene_kind(scene) -> str | None:
+    """A scene file's scene.kind (the drivers map Rapaport's law for the drum
+    and the particles scenes); None for an unreadable file, left for
+    `granular init` to report."""
     import tomllib
     try:
         with open(scene, "rb") as f:
-            return tomllib.load(f).get("scene", {}).get("kind") == "drum"
+            return tomllib.load(f).get("scene", {}).get("kind")
     except (OSError, tomllib.TOMLDecodeError):
-        return False
+        return None
+
+
+def is_drum(scene) -> bool:
+    """Whether a scene file is a drum (the drivers then map Rapaport's law)."""
+    return scene_kind(scene) == "drum"
 
 
 def lammps_version() -> str:

@@ -3,8 +3,10 @@
 Runs a scene file from scenes/ in YADE 2023.02a and writes the common HDF5
 schema. The native engine resolves the scene (`granular init`, as for
 lammps_cases); the initial state and the scene go to a work directory
-OUT.h5.yade/, and `yade -n -x -jN yade_cases/{drum,box}_case.py WORKDIR OUT.h5`
-runs the case. Exit status: YADE's, or 2 when the scene is refused (before
+OUT.h5.yade/, and `yade -n -x -jN yade_cases/{drum,box,particles}_case.py
+WORKDIR OUT.h5` runs the case. Particles scenes run YADE's viscoelastic law
+(contact.law is set to "viscel"); `run_particles` runs several in one YADE
+process. Exit status: YADE's, or 2 when the scene is refused (before
 anything runs) or the output exists (without --force)."""
 
 from __future__ import annotations
@@ -17,7 +19,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from lammps_cases.scene import ROOT, SceneRefused, refuse_frozen_rotation, is_drum, load_initial, refusal_message
+from lammps_cases.scene import (ROOT, SceneRefused, refuse_frozen_rotation, is_drum, load_initial,
+                                refusal_message, scene_kind)
 
 from .common import write_workdir
 
@@ -47,6 +50,13 @@ def refuse_unrepresentable(ini) -> None:
         kind = s.get("integrator", {}).get("kind", "gear")
         if kind not in ("gear", "verlet"):
             raise SceneRefused(f"\"{kind}\": unknown", key="integrator.kind")
+    elif ini.kind == "particles":
+        kind = s.get("integrator", {}).get("kind", "leapfrog")
+        if kind != "leapfrog":
+            raise SceneRefused(f"\"{kind}\": YADE runs its leapfrog (NewtonIntegrator) only", key="integrator.kind")
+        if "viscel_law" not in ini.derived:
+            raise SceneRefused(f"YADE's law cannot be mapped here: {ini.derived.get('linear_law')}",
+                               key="contact.law")
     else:
         raise SceneRefused(f"\"{ini.kind}\": no YADE case", key="scene.kind")
 
@@ -79,6 +89,16 @@ def main(argv=None):
     if yade is None:
         print("yade_cases: error: `yade` is not on PATH (apt-get install yade; scripts/setup.sh)", file=sys.stderr)
         return 2
+    if scene_kind(args.scene) == "particles":
+        try:
+            run_particles([(args.scene, out, args.set)], threads=args.threads, quiet=args.quiet)
+        except SceneRefused as exc:
+            print(f"yade_cases: error: {exc}", file=sys.stderr)
+            return 2
+        except RuntimeError as exc:
+            print(f"yade_cases: error: {exc}", file=sys.stderr)
+            return 1
+        return 0
     try:
         drum = is_drum(args.scene)
         ini = load_initial(args.scene, args.set, extra_sets=["contact.law=linear"] if drum else [])
@@ -112,6 +132,42 @@ def main(argv=None):
         print(f"yade_cases: error: yade exited with status {res.returncode} (log: {work / 'yade.log'})",
               file=sys.stderr)
     return res.returncode
+
+
+def run_particles(jobs, threads: int = 1, quiet: bool = True, timeout: float | None = None) -> None:
+    """Runs particles scenes in YADE, all in one YADE process (yade_cases/particles_case.py):
+    jobs = [(SCENE, OUT.h5, [key=value, ...]), ...]; existing outputs are replaced.
+    Raises SceneRefused (its message a full line, naming the file) before YADE
+    starts, or RuntimeError when YADE fails."""
+    yade = shutil.which("yade")
+    if yade is None:
+        raise RuntimeError("`yade` is not on PATH (apt-get install yade; scripts/setup.sh)")
+    resolved = []
+    for scene, out, sets in jobs:  # every scene checked before anything is written
+        try:
+            ini = load_initial(scene, sets, extra_sets=["contact.law=viscel"])
+            if ini.kind != "particles":
+                raise SceneRefused(f"\"{ini.kind}\": not a particles scene", key="scene.kind")
+            refuse_unrepresentable(ini)
+        except SceneRefused as exc:
+            raise SceneRefused(refusal_message(exc, scene, sets)) from None
+        resolved.append((scene, Path(out).resolve(), sets, ini))  # yade runs from the repository root
+    args = []
+    for scene, out, sets, ini in resolved:
+        work = Path(str(out) + ".yade")
+        write_workdir(work, ini, {"quiet": quiet, "threads": threads, "scene_path": str(scene), "sets": list(sets)})
+        if out.exists():
+            out.unlink()
+        args += [str(work), str(out)]
+    log_path = Path(args[0]) / "yade.log"
+    cmd = [yade, "-n", "-x", f"-j{max(1, threads)}", str(HERE / "particles_case.py")] + args
+    env = dict(os.environ, OMP_NUM_THREADS=str(max(1, threads)))
+    with open(log_path, "w") as log:
+        res = subprocess.run(cmd, cwd=ROOT, env=env, stdout=log, stderr=subprocess.PIPE, text=True, timeout=timeout)
+    if res.returncode != 0:
+        raise RuntimeError(f"yade exited with status {res.returncode} (log: {log_path}): {res.stderr[-2000:]}")
+    if not quiet and res.stderr:
+        sys.stderr.write(res.stderr)
 
 
 if __name__ == "__main__":

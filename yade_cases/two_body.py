@@ -51,6 +51,19 @@ def run(setup: dict, timeout: float = 300.0) -> np.ndarray:
         return np.array(json.loads(out.read_text()))
 
 
+def plane_facet_vertices(point, normal, incircle=1e3):
+    """The vertices of one triangle in the plane through POINT with that
+    normal, its incircle (radius INCIRCLE) centred on the point: a plane wall
+    with no edge within reach of the particles near the point."""
+    p, nrm = np.asarray(point, dtype=float), np.asarray(normal, dtype=float)
+    nrm = nrm / np.linalg.norm(nrm)
+    u = np.cross(nrm, [1.0, 0.0, 0.0] if abs(nrm[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(nrm, u)
+    big = 2.0 * incircle  # circumradius of an equilateral triangle
+    return [tuple(p + big * (math.cos(a) * u + math.sin(a) * v)) for a in (0.0, 2 * math.pi / 3, 4 * math.pi / 3)]
+
+
 def _simulate(setup: dict) -> list:
     from yade import O, utils
     from yade.minieigenHP import Vector3
@@ -83,13 +96,7 @@ def _simulate(setup: dict) -> list:
     if wall:
         if wall.get("kind", "facet") != "facet":
             raise ValueError(f"wall.kind = {wall['kind']!r}: only \"facet\"")
-        p, nrm = np.array(pad(wall["point"])), np.array(pad(wall["normal"]))
-        nrm /= np.linalg.norm(nrm)
-        u = np.cross(nrm, [1.0, 0.0, 0.0] if abs(nrm[0]) < 0.9 else [0.0, 1.0, 0.0])
-        u /= np.linalg.norm(u)
-        v = np.cross(nrm, u)
-        big = 2e3  # circumradius: the incircle radius is 1e3
-        verts = [tuple(p + big * (math.cos(a) * u + math.sin(a) * v)) for a in (0.0, 2 * math.pi / 3, 4 * math.pi / 3)]
+        verts = plane_facet_vertices(pad(wall["point"]), pad(wall["normal"]))
         f = utils.facet(verts, material=material(wall["material"]), fixed=True)
         fid = O.bodies.append(f)
         O.bodies[fid].state.vel = Vector3(*pad(wall.get("velocity", [0.0] * dim)))

@@ -222,7 +222,8 @@ def test_yade_refuses_what_it_cannot_represent(scene, tmp_path):
 
 @pytest.mark.parametrize("module", [pytest.param("lammps_cases", marks=needs_lammps),
                                     pytest.param("yade_cases", marks=needs_yade)])
-@pytest.mark.parametrize("name", ["drum_misspelt_required_key", "box_big_disk_larger_than_box", "drum_syntax_error"])
+@pytest.mark.parametrize("name", ["drum_misspelt_required_key", "box_big_disk_larger_than_box", "drum_syntax_error",
+                                  "particles_wrong_side"])
 def test_drivers_pass_on_the_native_message(module, name, tmp_path):
     """A scene the engine refuses: the driver's one line is the engine's message."""
     check_driver_refusal(module, CATALOGUE / f"{name}.toml", tmp_path)

@@ -1,7 +1,9 @@
 """Chung & Ooi's (2011) benchmark impacts under each native contact law
-(compare/impacts.py, docs/impacts.md) against their analytic limits. All
-scenes use integrator.dt = 1e-4; the whole module runs `compare impacts` once
-(45 short runs, a few seconds)."""
+(compare/impacts.py, docs/impacts.md) against their analytic limits, and the
+same cases in LAMMPS (the linear law) and YADE (the viscoelastic law) against
+the native engine. All scenes use integrator.dt = 1e-4; the whole module runs
+`compare impacts` once (45 native runs, 15 in LAMMPS, 15 in one YADE process:
+about 10 s) and each driver's command line once."""
 import json
 import os
 import subprocess
@@ -12,6 +14,7 @@ import numpy as np
 import pytest
 
 from compare import impacts as im
+from compare.reader import read_run
 
 ROOT = Path(__file__).resolve().parents[2]
 BIN = Path(os.environ.get("GRANULAR_BIN", ROOT / "build" / "granular"))
@@ -29,6 +32,14 @@ TOL_E = 1.5e-3
 # the small |f_n| there, so the step-quantised ends cost less; measured at
 # most 2e-5 at dt = 1e-4 and 2e-4 at 2e-4.
 TOL_SLIDE = 2e-4
+# Two engines running the same law: the same coefficients (granular init's
+# derived["linear_law"] / ["viscel_law"]), the same diameters, masses and
+# moments of inertia, the same step and the same integrator (LAMMPS's velocity
+# Verlet is the native leapfrog's two stages; YADE's leapfrog gives the same
+# positions and half-step velocities from a state at rest under no force), so
+# the post-impact states differ by rounding only: measured 4e-16 (LAMMPS) and
+# 1.2e-14 (YADE) relative at most.
+TOL_ENGINES = 1e-6
 
 
 @pytest.fixture(scope="module")
@@ -141,3 +152,77 @@ def test_viscel_tangential_is_linear(res):
     assert np.ptp(et) < 1e-9 * abs(et[0])
     spin = np.array([q["spin"] / q["ratio"] for q in r["oblique"]])
     assert np.ptp(spin) < 1e-9 * spin[0]
+
+
+def _peer(res, law):
+    e = res["json"]["engines"][law]
+    if "skipped" in e:
+        pytest.skip(f"{e['engine']}: {e['skipped']}")
+    return e
+
+
+@pytest.mark.parametrize("law", sorted(im.PEERS))
+def test_engines_agree(res, law):
+    # Every case of the law in the other engine: every post-impact velocity and
+    # surface-spin component within TOL_ENGINES of the native one (relative),
+    # the components that are zero (by symmetry) zero there too.
+    e = _peer(res, law)
+    assert e["engine"] == im.PEERS[law]
+    assert len(e["cases"]) == len(im.RATIOS) + 3
+    for c in e["cases"]:
+        assert c["steps"][0] == c["steps"][1], (law, c)
+        assert c["max_rel"] < TOL_ENGINES, (law, c)
+        assert c["max_zero"] < 1e-12, (law, c)
+        assert abs(c["e_n"][0] / c["e_n"][1] - 1) < TOL_ENGINES, (law, c)
+    assert e["max_rel"] < TOL_ENGINES
+    assert f"| {law} | {e['engine']} | **all 15 cases**" in res["stdout"]
+
+
+def test_rapaport_has_no_peer(res):
+    assert "rapaport" not in res["json"]["engines"]
+
+
+def test_particles_scene_reports_the_mapped_laws():
+    # granular info on a particles scene gives the coefficients its mapped laws
+    # run (derived.linear_law, derived.viscel_law), which LAMMPS and YADE are
+    # given; the linear ones as compare.impacts.linear_map computes them
+    # (no gravity: Rapaport's stiffness at first touch).
+    r = subprocess.run([str(BIN), "info", "scenes/impacts/head_on.toml", "--json"], cwd=ROOT, capture_output=True,
+                       text=True, timeout=60)
+    d = json.loads(r.stdout)["derived"]
+    lin = d["linear_law"]
+    assert lin["wall_inset"] == pytest.approx(0.5 * im.CUT, rel=1e-15)
+    for got, meff, gs, mu in ((lin["pair"]["small_small"], 0.5, 2.0, 0.1), (lin["wall"]["small"], 1.0, 2.0, 0.1)):
+        want = im.linear_map(1.0, meff, 5.0, gs, mu)
+        for k in ("kn", "gamma_n", "xgamma_t", "mu"):
+            assert abs(want[k] / got[k] - 1) < 1e-8, (k, want[k], got[k])
+    ve = d["viscel_law"]["materials"]["small"]
+    assert ve["kn"] == 2 * lin["pair"]["small_small"]["kn"]
+
+
+def _run_cli(module, tmp_path, scene, sets=()):
+    out = tmp_path / f"{module}.h5"
+    cmd = [sys.executable, "-m", module, "run", scene, "-o", str(out), "-q"]
+    for kv in sets:
+        cmd += ["--set", kv]
+    r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=120,
+                       env={**os.environ, "GRANULAR_BIN": str(BIN)})
+    assert r.returncode == 0, r.stderr
+    return read_run(out)
+
+
+@pytest.mark.parametrize("module,law,engine", [("lammps_cases", "linear", "lammps"), ("yade_cases", "viscel", "yade")])
+def test_driver_runs_a_particles_scene(res, tmp_path, module, law, engine):
+    # `python3 -m lammps_cases|yade_cases run SCENE -o OUT --set ...` on a
+    # particles scene writes the common schema at the native frames, and the
+    # --set override reaches the run: the oblique scene at v_t/v_n = 2 ends as
+    # compare impacts' run of that incidence did.
+    _peer(res, law)
+    p0 = {"x": 0.0, "y": 0.0, "z": 1.2, "vz": -1.0, "d": 1.0, "species": 0}
+    run = _run_cli(module, tmp_path, "scenes/impacts/wall_oblique.toml", [im._sphere_list(p0, 2.0)])
+    assert run.attrs["engine"] == engine and run.attrs["scene_kind"] == "particles"
+    k = list(im.RATIOS).index(2.0)
+    ref = read_run(res["out"] / "runs" / f"wall_oblique_{law}_{k}_{engine}.h5")
+    assert np.array_equal(run.frames.step, ref.frames.step)
+    assert np.array_equal(run.frames.velocity, ref.frames.velocity)
+    assert np.array_equal(run.frames.angular_velocity, ref.frames.angular_velocity)

@@ -109,6 +109,60 @@ nlohmann::json step_json(const StepRule& r, double dt) {
   return j;
 }
 
+// The linear law mapped from Rapaport's and YADE's viscoelastic law mapped
+// from that (scene/law_mapping.hpp), as derived["linear_law"] and
+// derived["viscel_law"]; false (with linear_law.infeasible) when Rapaport's
+// collisions have no linear equivalent.
+bool mapped_laws_json(const MappingInputs& in, nlohmann::json& d) {
+  try {
+    const LinearMapping m = map_rapaport_to_linear(in);
+    nlohmann::json lin;
+    auto coeff = [](const LinearLaw<3>::Coeff& c) {
+      return nlohmann::json{{"kn", c.kn}, {"gamma_n", c.gamma_n}, {"xgamma_t", c.xgamma_t}, {"mu", c.mu}};
+    };
+    auto col = [](const Collision& c) {
+      return nlohmann::json{{"restitution", c.restitution}, {"contact_time", c.contact_time}};
+    };
+    const char* pairs[3] = {"small_small", "small_big", "big_big"};
+    const char* species[2] = {"small", "big"};
+    for (int k = 0; k < 3; ++k) {
+      const int a = k == 2 ? 1 : 0, b = k == 0 ? 0 : 1;
+      lin["pair"][pairs[k]] = coeff(m.law.pair[a * 2 + b]);
+      lin["pair"][pairs[k]]["m_eff"] = m.pair_meff[k];
+      lin["pair"][pairs[k]]["rapaport"] = col(m.pair_collision[k]);
+      lin["pair"][pairs[k]]["linear"] = col(m.pair_linear[k]);
+    }
+    for (int a = 0; a < 2; ++a) {
+      lin["wall"][species[a]] = coeff(m.law.wall[a]);
+      lin["wall"][species[a]]["m_eff"] = m.wall_meff[a];
+      lin["wall"][species[a]]["rapaport"] = col(m.wall_collision[a]);
+      lin["wall"][species[a]]["linear"] = col(m.wall_linear[a]);
+    }
+    lin["impact_speed"] = m.impact_speed;
+    lin["static_load"] = m.static_load;
+    lin["diameter_scale"] = m.diameter_scale;
+    lin["wall_inset"] = m.wall_inset;
+    d["linear_law"] = lin;
+    const ViscElMapping v = map_linear_to_viscel(in, m);
+    nlohmann::json ve;
+    for (int a = 0; a < 2; ++a) {
+      const auto& mt = v.law.mat[a];
+      ve["materials"][species[a]] = {{"kn", mt.kn}, {"cn_per_mass", mt.cn_per_mass}, {"cs_per_mass", mt.cs_per_mass}};
+      const auto& w = v.law.wall[a];
+      ve["wall_materials"][species[a]] = {{"kn", w.kn}, {"cn", w.cn}, {"cs", w.cs}};
+      ve["mean_mass"][species[a]] = v.mean_mass[a];
+    }
+    ve["infeasible"] = v.infeasible;
+    ve["rule"] = "YADE ViscElMat per particle: kn, cn = cn_per_mass m_i, cs = cs_per_mass m_i; walls absolute; "
+                 "pair value 1/(1/a + 1/b), 0 = absent (contact/viscel.hpp)";
+    d["viscel_law"] = ve;
+    return true;
+  } catch (const MappingError& e) {
+    d["linear_law"] = {{"infeasible", e.what()}};  // refused if the scene's law needs it
+    return false;
+  }
+}
+
 nlohmann::json info_json(const Loaded& l) {
   auto j = nlohmann::json::parse(l.json);
   nlohmann::json d;
@@ -128,53 +182,12 @@ nlohmann::json info_json(const Loaded& l) {
     d["steps_per_rotation"] = s.rotation_period() / s.dt;
     d["steps_total"] = s.steps_per(s.rotations);
     // The linear law mapped from Rapaport's (what LAMMPS runs, and the native
-    // engine with contact.law = "linear"): docs/model_mapping.md.
-    try {
-      const LinearMapping m = map_rapaport_to_linear(s);
-      nlohmann::json lin;
-      auto coeff = [](const LinearLaw<3>::Coeff& c) {
-        return nlohmann::json{{"kn", c.kn}, {"gamma_n", c.gamma_n}, {"xgamma_t", c.xgamma_t}, {"mu", c.mu}};
-      };
-      auto col = [](const Collision& c) {
-        return nlohmann::json{{"restitution", c.restitution}, {"contact_time", c.contact_time}};
-      };
-      const char* pairs[3] = {"small_small", "small_big", "big_big"};
-      const char* species[2] = {"small", "big"};
-      for (int k = 0; k < 3; ++k) {
-        const int a = k == 2 ? 1 : 0, b = k == 0 ? 0 : 1;
-        lin["pair"][pairs[k]] = coeff(m.law.pair[a * 2 + b]);
-        lin["pair"][pairs[k]]["m_eff"] = m.pair_meff[k];
-        lin["pair"][pairs[k]]["rapaport"] = col(m.pair_collision[k]);
-        lin["pair"][pairs[k]]["linear"] = col(m.pair_linear[k]);
-      }
-      for (int a = 0; a < 2; ++a) {
-        lin["wall"][species[a]] = coeff(m.law.wall[a]);
-        lin["wall"][species[a]]["m_eff"] = m.wall_meff[a];
-        lin["wall"][species[a]]["rapaport"] = col(m.wall_collision[a]);
-        lin["wall"][species[a]]["linear"] = col(m.wall_linear[a]);
-      }
-      lin["impact_speed"] = m.impact_speed;
-      lin["static_load"] = m.static_load;
-      lin["diameter_scale"] = m.diameter_scale;
-      lin["wall_inset"] = m.wall_inset;
-      lin["contact_diameter"] = s.diameter - 2.0 * m.wall_inset;
-      lin["contact_length"] = s.length - (s.capped ? 2.0 * m.wall_inset : 0.0);
-      d["linear_law"] = lin;
-      const ViscElMapping v = map_linear_to_viscel(s, m);
-      nlohmann::json ve;
-      for (int a = 0; a < 2; ++a) {
-        const auto& mt = v.law.mat[a];
-        ve["materials"][species[a]] = {{"kn", mt.kn}, {"cn_per_mass", mt.cn_per_mass}, {"cs_per_mass", mt.cs_per_mass}};
-        const auto& w = v.law.wall[a];
-        ve["wall_materials"][species[a]] = {{"kn", w.kn}, {"cn", w.cn}, {"cs", w.cs}};
-        ve["mean_mass"][species[a]] = v.mean_mass[a];
-      }
-      ve["infeasible"] = v.infeasible;
-      ve["rule"] = "YADE ViscElMat per particle: kn, cn = cn_per_mass m_i, cs = cs_per_mass m_i; walls absolute; "
-                   "pair value 1/(1/a + 1/b), 0 = absent (contact/viscel.hpp)";
-      d["viscel_law"] = ve;
-    } catch (const MappingError& e) {
-      d["linear_law"] = {{"infeasible", e.what()}};  // refused if the scene's law needs it
+    // engine with contact.law = "linear") and YADE's law mapped from that:
+    // docs/model_mapping.md.
+    if (mapped_laws_json(mapping_inputs(s), d)) {
+      const double inset = d["linear_law"]["wall_inset"].get<double>();
+      d["linear_law"]["contact_diameter"] = s.diameter - 2.0 * inset;
+      d["linear_law"]["contact_length"] = s.length - (s.capped ? 2.0 * inset : 0.0);
     }
   } else if (l.particles) {
     const ParticlesScene& s = *l.particles;
@@ -189,6 +202,9 @@ nlohmann::json info_json(const Loaded& l) {
     d["release_speed"] = s.release_speed;
     d["time_step"] = step_json(particles_step_rule(s), s.dt);
     d["steps_total"] = s.steps_per(s.duration);
+    // The same maps as the drum's, from the particles' species (docs/particles_scene.md):
+    // what contact.law = "linear" and "viscel" run, and what LAMMPS and YADE are given.
+    mapped_laws_json(mapping_inputs(s), d);
   } else {
     const BoxScene& s = *l.box;
     std::vector<Eigen::Vector2d> anchors;
