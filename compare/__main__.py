@@ -139,7 +139,16 @@ def main(argv=None):
     va.add_argument("--rows", default=None,
                     help="comma-separated subset of rows (native-paper, native-linear, lammps, native-viscel, yade)")
     va.add_argument("--cases", default=None, help="comma-separated subset of the suite's cases (quick: drum_short, "
-                    "box; full: drum_A, box); the report covers only these")
+                    "box_rise; full: drum_A, box); the report covers only these")
+    va.add_argument("--mutants", default=None,
+                    help="also run the native rows of the gating pairs with planted model errors and report which the "
+                         "suite calls different: comma-separated names or 'all' (compare/validate.py MUTANTS); "
+                         "writes DIR/report_mutants.{json,html}")
+    va.add_argument("--false-alarms", type=int, default=0, metavar="R",
+                    help="also run the native rows of the gating pairs on 2R groups of fresh seeds and count how "
+                         "often a group is called different from another; writes DIR/report_false_alarmsR.{json,html}")
+    va.add_argument("--design", action="store_true",
+                    help="print the suite's power analysis (margin, designed spread, runs needed, power) and exit")
     vw = sub.add_parser("views", help="drum: the particles seen from above, below or obliquely")
     vw.add_argument("run")
     vw.add_argument("-o", "--output", required=True, help="PNG to write")
@@ -173,11 +182,18 @@ def main(argv=None):
         return 0
 
     if args.command == "validate":
-        from .validate import validate
+        from .validate import MUTANTS, design_table, validate
+        cases = args.cases.split(",") if args.cases else None
+        if args.design:
+            for d in design_table(args.suite, cases):
+                print(f"{d['case']:12s} {d['variant']:6s} {d['observable']:20s} margin {d['margin']:<5g} "
+                      f"spread {d['spread']!s:6s} runs needed {d['required']!s:5s} runs {d['n']:3d} "
+                      f"power {d['power']:.2f}  {'gating' if d['gating'] else 'reported'}")
+            return 0
+        mutants = list(MUTANTS) if args.mutants == "all" else (args.mutants.split(",") if args.mutants else [])
         rep = validate(args.suite, args.output, lanes=args.lanes,
-                       rows=args.rows.split(",") if args.rows else None,
-                       cases=args.cases.split(",") if args.cases else None,
-                       log=lambda m: print(m, file=sys.stderr, flush=True))
+                       rows=args.rows.split(",") if args.rows else None, cases=cases, mutants=mutants,
+                       false_alarms=args.false_alarms, log=lambda m: print(m, file=sys.stderr, flush=True))
         return 0 if rep["verdict"] == "pass" else 1
 
     if args.command == "speed-accuracy":

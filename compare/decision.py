@@ -21,6 +21,7 @@ import warnings
 import numpy as np
 from scipy import integrate, stats
 from statsmodels.stats.power import TTestIndPower, TTestPower
+from statsmodels.stats.proportion import confint_proportions_2indep
 from statsmodels.stats.weightstats import CompareMeans, DescrStatsW, ttost_ind, ttost_paired
 
 
@@ -53,7 +54,8 @@ def _decide(diff, ci90, ci95, tost_p, margin, alpha, n_a, n_b, mdd):
         tail = "contains 0" if not excludes_zero else f"{_interval(ci95)} stays within {m}"
         reason = f"{l90} interval {_interval(ci90)} not inside {m}; {l95} interval {tail}"
     return {"verdict": verdict, "difference": float(diff), "ci90": [float(lo90), float(hi90)],
-            "ci95": [float(lo95), float(hi95)], "tost_p": float(tost_p), "margin": float(margin),
+            "ci95": [float(lo95), float(hi95)], "tost_p": None if tost_p is None else float(tost_p),
+            "margin": float(margin),
             "n_a": n_a, "n_b": n_b, "mdd": mdd, "reason": reason}
 
 
@@ -221,3 +223,104 @@ def sample_size_for_equivalence(sd, margin, true_diff=0.0, power=0.8, alpha=0.05
         mid = (lo + hi) // 2
         lo, hi = (lo, mid) if ok(mid) else (mid, hi)
     return hi
+
+
+# ---------------------------------------------------------------- yes/no observables
+
+
+def _check_counts(k_a, n_a, k_b, n_b, margin):
+    for k, n in ((k_a, n_a), (k_b, n_b)):
+        if not (0 <= int(k) <= int(n)) or int(k) != k or int(n) != n:
+            raise ValueError(f"counts must be integers with 0 <= k <= n (got {k} of {n})")
+    if not margin > 0:
+        raise ValueError("margin must be positive")
+    return int(k_a), int(n_a), int(k_b), int(n_b)
+
+
+@functools.lru_cache(maxsize=100000)
+def _newcombe(k_b, n_b, k_a, n_a, alpha):
+    """Newcombe's hybrid score interval of p_b - p_a (statsmodels); it is
+    defined at the boundaries (0 of n, n of n), where the score interval is not."""
+    lo, hi = confint_proportions_2indep(k_b, n_b, k_a, n_a, method="newcomb", compare="diff", alpha=alpha)
+    return float(lo), float(hi)
+
+
+def verdict_proportions(k_a, n_a, k_b, n_b, margin, alpha=0.05):
+    """Verdict on the difference of two fractions, k_b/n_b - k_a/n_a (e.g. the
+    packings in which the big disk rose, in two engines), by the same rule as
+    the scalar verdicts, with Newcombe's hybrid score intervals at 1 - 2 alpha
+    (equivalence) and 1 - alpha (difference). ``mdd`` is the smallest true
+    difference from the pooled fraction that is called different with
+    probability 0.8 (exact, :func:`proportion_power`)."""
+    k_a, n_a, k_b, n_b = _check_counts(k_a, n_a, k_b, n_b, margin)
+    if n_a < 2 or n_b < 2:
+        diff = k_b / n_b - k_a / n_a if n_a and n_b else None
+        return {"verdict": "inconclusive", "difference": diff, "ci90": None, "ci95": None, "tost_p": None,
+                "margin": float(margin), "n_a": n_a, "n_b": n_b, "mdd": None, "reason": "too few runs"}
+    diff = k_b / n_b - k_a / n_a
+    ci90 = _newcombe(k_b, n_b, k_a, n_a, 2 * alpha)
+    ci95 = _newcombe(k_b, n_b, k_a, n_a, alpha)
+    mdd = proportion_mdd((k_a + k_b) / (n_a + n_b), n_a, n_b, margin, alpha)
+    return _decide(diff, ci90, ci95, None, margin, alpha, n_a, n_b, mdd)
+
+
+def _binomial_pmf(n, p):
+    return stats.binom.pmf(np.arange(n + 1), n, p)
+
+
+def proportion_power(p_a, p_b, n_a, n_b, margin, alpha=0.05, outcome="equivalent"):
+    """Probability that :func:`verdict_proportions` ends in ``outcome`` when the
+    true fractions are p_a and p_b: exact, summed over every pair of counts."""
+    wa, wb = _binomial_pmf(n_a, p_a), _binomial_pmf(n_b, p_b)
+    total = 0.0
+    for ka in range(n_a + 1):
+        if wa[ka] < 1e-12:
+            continue
+        for kb in range(n_b + 1):
+            if wb[kb] < 1e-12:
+                continue
+            if _proportion_outcome(ka, n_a, kb, n_b, margin, alpha) == outcome:
+                total += wa[ka] * wb[kb]
+    return float(total)
+
+
+@functools.lru_cache(maxsize=100000)
+def _proportion_outcome(k_a, n_a, k_b, n_b, margin, alpha):
+    diff = k_b / n_b - k_a / n_a
+    lo90, hi90 = _newcombe(k_b, n_b, k_a, n_a, 2 * alpha)
+    lo95, hi95 = _newcombe(k_b, n_b, k_a, n_a, alpha)
+    if (lo90 == hi90 and -margin <= lo90 <= margin) or (-margin < lo90 and hi90 < margin):
+        return "equivalent"
+    if (lo95 > 0 or hi95 < 0) and max(abs(lo95), abs(hi95)) > margin:
+        return "different"
+    del diff
+    return "inconclusive"
+
+
+def proportion_mdd(p, n_a, n_b, margin, alpha=0.05, power=0.8):
+    """Smallest true shift d of the fraction from p (up or down, whichever
+    is found first in steps of 0.01) that :func:`verdict_proportions` calls
+    different with probability ``power``; None when no shift within [0, 1]
+    reaches it."""
+    best = None
+    for d in np.arange(0.01, 1.0001, 0.01):
+        for pb in (p + d, p - d):
+            if 0.0 <= pb <= 1.0 and proportion_power(p, pb, n_a, n_b, margin, alpha, "different") >= power:
+                best = float(round(d, 2))
+                break
+        if best is not None:
+            break
+    return best
+
+
+def threshold_test(k_above, n_above, k_below, n_below, alpha=0.05):
+    """Whether a yes/no outcome (the big disk's rise) happens more often above a
+    threshold than below it: Fisher's exact test, one-sided, at ``alpha``.
+    Returns a dict with present (bool), p, the two fractions and a reason."""
+    table = [[k_above, n_above - k_above], [k_below, n_below - k_below]]
+    p = float(stats.fisher_exact(table, alternative="greater")[1])
+    present = p < alpha
+    fa, fb = (k_above / n_above if n_above else None), (k_below / n_below if n_below else None)
+    reason = (f"{k_above}/{n_above} above against {k_below}/{n_below} below, one-sided Fisher p = {p:.2g}"
+              f" {'<' if present else '>='} {alpha:g}")
+    return {"present": bool(present), "p": p, "above_fraction": fa, "below_fraction": fb, "reason": reason}

@@ -131,72 +131,139 @@ def box_figures(name, case, outdir):
     return written
 
 
-def write_report(report, outdir):
+def _interval(ci):
+    return f"[{_fmt(ci[0])}, {_fmt(ci[1])}]" if ci else "–"
+
+
+def _side(s):
+    if not isinstance(s, dict):
+        return "–"
+    if "fraction" in s:
+        return f"{s['k']}/{s['n']}"
+    if "mean" in s:
+        und = f", {s['undefined']} undef." if s.get("undefined") else ""
+        return f"{_fmt(s['mean'])} ± {_fmt(s['sd'])} ({s['n']}{und})"
+    return "–"
+
+
+def _verdict_class(c):
+    if not c.get("gating"):
+        return "info"
+    return "pass" if c.get("verdict") == "equivalent" else "fail"
+
+
+def write_report(report, outdir, name="report"):
     outdir = Path(outdir)
     figs = {}
-    for name, case in report["cases"].items():
+    for cname, case in report["cases"].items():
         try:
-            figs[name] = (drum_figures if case["kind"] == "drum" else box_figures)(name, case, outdir)
+            figs[cname] = (drum_figures if case["kind"] == "drum" else box_figures)(cname, case, outdir)
         except Exception as e:  # a missing figure must not lose the report's numbers
-            figs[name] = []
+            figs[cname] = []
             case.setdefault("figure_errors", []).append(str(e))
     esc = html.escape
     out = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
            f"<title>Validation report: suite {esc(report['suite'])}</title>",
-           "<style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em}"
+           "<style>body{font-family:sans-serif;max-width:1300px;margin:2em auto;padding:0 1em}"
            "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:3px 8px;font-size:90%}"
            "th{background:#eee}.pass{background:#d8f0d8}.fail{background:#f6d0d0}.info{background:#f4f0d8}"
            "img{max-width:100%;border:1px solid #ddd;margin:4px 0}</style></head><body>"]
     verdict = report["verdict"]
     out.append(f"<h1>Validation report: suite <code>{esc(report['suite'])}</code></h1>")
     out.append(f"<p id='verdict' class='{'pass' if verdict == 'pass' else 'fail'}'>Verdict: <b>{esc(verdict)}</b>"
-               f" ({len(report['failures'])} gating disagreements). Created {esc(report['created'])}. "
-               f"Rules and tolerances: docs/tolerances.md — two rows agree on a scalar when the Welch interval "
-               f"({100 * report['per_comparison_confidence']:.4g}% each: 95% family-wise over "
-               f"{report['gating_scalar_comparisons']} gating comparisons) of "
-               "the difference of their seed means contains zero and the difference is within the absolute "
-               "tolerance; on a yes/no observable when their 95% Clopper–Pearson intervals overlap. Gating pairs run "
-               "the same model in two engines; the others measure a model difference and are reported only.</p>")
-    out.append("<h2>Summary</h2><table id='summary'><tr><th>case</th><th>variant</th><th>rows</th><th>observable</th>"
-               "<th>A: mean ± sd (n)</th><th>B: mean ± sd (n)</th><th>difference [interval]</th>"
-               "<th>tolerance</th><th>verdict</th></tr>")
+               f" ({len(report['failures'])} gating comparisons not equivalent). Created {esc(report['created'])}. "
+               "Rules and margins: docs/tolerances.md. Each comparison ends <i>equivalent</i> (the 90% interval "
+               "of the difference lies inside ±margin), <i>different</i> (the 95% interval excludes 0 and reaches "
+               "beyond the margin) or <i>inconclusive</i>. Scalars are compared paired by seed (every row starts "
+               "from the same packings); yes/no observables by their fractions (Newcombe intervals). A comparison "
+               f"gates when its two rows run the same model and the suite's runs give it a power of at least "
+               f"{report.get('power_target', 0.8):g} to reach <i>equivalent</i>; the suite passes when every gating "
+               "comparison is equivalent and every engine shows the rise threshold. MDD: the smallest true "
+               "difference called different with probability 0.8.</p>")
+    out.append("<h2>Summary</h2><table id='summary'><tr><th>case</th><th>variant</th><th>rows (A vs B)</th>"
+               "<th>observable</th><th>A</th><th>B</th><th>B − A [95% interval]</th><th>margin</th><th>MDD</th>"
+               "<th>verdict</th><th>gating</th></tr>")
     for c in report["comparisons"]:
-        cls = ("pass" if c["agree"] else "fail") if c["gating"] else "info"
-        word = ("agree" if c["agree"] else "DISAGREE") + ("" if c["gating"] else " (model, not gating)")
-
-        def side(s):
-            if not isinstance(s, dict):
-                return "–"
-            if "fraction" in s:
-                return f"{s['k']}/{s['n']} [{s['ci95'][0]:.2f}, {s['ci95'][1]:.2f}]"
-            if "mean" in s:
-                return f"{_fmt(s['mean'])} ± {_fmt(s['sd'])} ({s['n']}{', ' + str(s['undefined']) + ' undef.' if s['undefined'] else ''})"
-            return "–"
-        diff = (f"{_fmt(c['difference'])} [{_fmt(c['ci'][0])}, {_fmt(c['ci'][1])}]"
-                if "difference" in c else "–")
-        out.append(f"<tr class='{cls}'><td>{esc(c['case'])}</td><td>{esc(c['variant'])}</td>"
+        diff = f"{_fmt(c.get('difference'))} {_interval(c.get('ci95'))}" if c.get("difference") is not None else "–"
+        out.append(f"<tr class='{_verdict_class(c)}'><td>{esc(c['case'])}</td><td>{esc(c['variant'])}</td>"
                    f"<td>{esc(c['a_row'])} vs {esc(c['b_row'])}</td><td>{esc(c['observable'])}</td>"
-                   f"<td>{esc(side(c.get('a')))}</td><td>{esc(side(c.get('b')))}</td><td>{esc(diff)}</td>"
-                   f"<td>{_fmt(c.get('tolerance'))}</td><td>{esc(word)}{(': ' + esc(c['reason'])) if c.get('reason') else ''}</td></tr>")
+                   f"<td>{esc(_side(c.get('a')))}</td><td>{esc(_side(c.get('b')))}</td><td>{esc(diff)}</td>"
+                   f"<td>{_fmt(c.get('margin'))}</td><td>{_fmt(c.get('mdd'))}</td>"
+                   f"<td>{esc(c['verdict'])}{(': ' + esc(c['reason'])) if c.get('reason') else ''}</td>"
+                   f"<td>{esc(c.get('why', ''))}</td></tr>")
     out.append("</table>")
+    if report.get("thresholds"):
+        out.append("<h2>Rise threshold per engine</h2><table id='thresholds'><tr><th>case</th><th>row</th>"
+                   "<th>rose above / below</th><th>test</th></tr>")
+        for t in report["thresholds"]:
+            cls = ("pass" if t["present"] else "fail") if t["gating"] else "info"
+            out.append(f"<tr class='{cls}'><td>{esc(t['case'])}</td><td>{esc(t['row'])}</td>"
+                       f"<td>{esc(t['above'])}: {_fmt(t['above_fraction'])}; {esc(t['below'])}: "
+                       f"{_fmt(t['below_fraction'])}</td><td>{esc(t['reason'])}</td></tr>")
+        out.append("</table>")
+    if report.get("design"):
+        out.append("<h2>Sample sizes</h2><table id='design'><tr><th>case</th><th>variant</th><th>observable</th>"
+                   "<th>margin</th><th>designed spread (sd of paired differences, or fraction)</th>"
+                   "<th>runs for power 0.8</th><th>runs</th><th>power</th><th>role</th></tr>")
+        for d in report["design"]:
+            out.append(f"<tr class='{'pass' if d['gating'] else 'info'}'><td>{esc(d['case'])}</td>"
+                       f"<td>{esc(d['variant'])}</td><td>{esc(d['observable'])}</td><td>{_fmt(d['margin'])}</td>"
+                       f"<td>{_fmt(d['spread'])}</td><td>{_fmt(d['required'])}</td><td>{d['n']}</td>"
+                       f"<td>{_fmt(d['power'])}</td><td>{esc(d['why'])}</td></tr>")
+        out.append("</table>")
+    if report.get("detection"):
+        out.append("<h2>Planted errors</h2><table id='mutants'><tr><th>mutant</th><th>gating observables it moves "
+                   "beyond the margin</th><th>called different</th><th>missed</th><th>suite fails</th></tr>")
+        for d in report["detection"]:
+            cls = "pass" if not d["missed"] else "fail"
+            out.append(f"<tr class='{cls}'><td>{esc(d['description'])}</td>"
+                       f"<td>{esc(', '.join(d['effect_beyond_margin']) or '–')}</td>"
+                       f"<td>{esc(', '.join(d['detected']) or '–')}</td><td>{esc(', '.join(d['missed']) or '–')}</td>"
+                       f"<td>{'yes' if d['suite_fails'] else 'no'}</td></tr>")
+        out.append("</table>")
+        out.append("<table id='mutant_detail'><tr><th>mutant</th><th>case</th><th>variant</th><th>observable</th>"
+                   "<th>effect (mutant − native) [95%]</th><th>margin</th><th>vs reference</th><th>gating</th></tr>")
+        for m in report["mutants"]:
+            out.append(f"<tr class='{'info' if not m['gating'] else ('pass' if m['detected'] else 'fail')}'>"
+                       f"<td>{esc(m['mutant'])}</td><td>{esc(m['case'])}</td><td>{esc(m['variant'])}</td>"
+                       f"<td>{esc(m['observable'])}</td><td>{_fmt(m['effect'])} {_interval(m['effect_ci95'])} "
+                       f"({esc(m['effect_verdict'])})</td><td>{_fmt(m['margin'])}</td>"
+                       f"<td>{esc(m['verdict'])} {_fmt(m['difference'])} {_interval(m['ci95'])}</td>"
+                       f"<td>{'yes' if m['gating'] else 'no'}</td></tr>")
+        out.append("</table>")
+    if report.get("false_alarms"):
+        fa = report["false_alarms"]
+        out.append(f"<h2>False alarms ({fa['repeats']} repeats, fresh seeds against fresh seeds)</h2>"
+                   "<table id='false_alarms'><tr><th>gating comparison</th><th>different</th><th>inconclusive</th>"
+                   "<th>equivalent</th></tr>")
+        for k, e in fa["per_comparison"].items():
+            out.append(f"<tr><td>{esc(k)}</td><td>{e['different']}/{e['repeats']}</td>"
+                       f"<td>{e['inconclusive']}/{e['repeats']}</td><td>{e['equivalent']}/{e['repeats']}</td></tr>")
+        for k, e in fa["per_pair"].items():
+            out.append(f"<tr><td>{esc(k)}: any gating comparison</td><td>{e['any_different']}/{e['repeats']}</td>"
+                       f"<td>–</td><td>all: {e['all_equivalent']}/{e['repeats']}</td></tr>")
+        out.append("</table>")
     for name, case in report["cases"].items():
         out.append(f"<h2>{esc(name)} ({esc(case['kind'])}: {esc(case['scene'])} {esc(' '.join(case['sets']))}; "
                    f"seeds {case['seeds']})</h2>")
         out.append("<table class='rows'><tr><th>variant</th><th>row</th><th>runs ok</th>"
                    + "".join(f"<th>{esc(k)}</th>" for k in _scalar_names(case))
-                   + ("<th>convecting</th><th>rose</th>" if case["kind"] == "box" else "")
+                   + ("<th>convecting</th><th>rose</th>" if case["kind"] == "box" else "<th>formed</th>")
                    + "<th>at Coulomb cap</th><th>particle-steps/s (whole run)</th></tr>")
         for vname, rows in case["variants"].items():
             for row, r in rows.items():
                 oks = _ok_runs(r)
                 cells = [f"{len(oks)}/{len(r['runs'])}" + (f" (failed: {r['failed_runs']})" if r["failed_runs"] else "")]
                 for k in _scalar_names(case):
-                    s = r["summary"][k]
-                    cells.append(f"{_fmt(s['mean'])} ± {_fmt(s['sd'])}" if s["mean"] is not None else "–")
+                    s = r.get("summary", {}).get(k)
+                    cells.append(f"{_fmt(s['mean'])} ± {_fmt(s['sd'])}" if s and s["mean"] is not None else "–")
                 if case["kind"] == "box":
                     for key in ("convection", "rise"):
                         b = r.get(key)
                         cells.append(f"{b['k']}/{b['n']}" if b else "–")
+                else:
+                    b = r.get("fractions", {}).get("formed")
+                    cells.append(f"{b['k']}/{b['n']}" if b else "–")
                 caps = [x.get("coulomb_at_cap") for x in oks if x.get("coulomb_at_cap") is not None]
                 cells.append(f"{np.mean(caps):.3g}" if caps else "–")
                 cells.append(_fmt(r.get("speed")))
@@ -213,7 +280,7 @@ def write_report(report, outdir):
             out.append(f"<p><img src='{esc(Path(p).name)}' alt='{esc(Path(p).stem)}'></p>")
         for e in case.get("figure_errors", []):
             out.append(f"<p class='fail'>figure not drawn: {esc(e)}</p>")
-    out.append("<p>Every number: <a href='report.json'>report.json</a>. Speeds here are whole-run rates per CPU second "
+    out.append(f"<p>Every number: <a href='{name}.json'>{name}.json</a>. Speeds here are whole-run rates per CPU second "
                "(start-up and output included; runs cached before CPU time was recorded use wall-clock time, "
                "marked in report.json as timed_by); the interleaved benchmark is "
                "<code>compare bench</code>.</p>")
@@ -222,9 +289,11 @@ def write_report(report, outdir):
                "document.body.setAttribute('data-images-loaded',n);"
                "document.body.setAttribute('data-images-total',document.images.length);});</script>")
     out.append("</body></html>")
-    (outdir / "report.html").write_text("\n".join(out))
-    return outdir / "report.html"
+    (outdir / f"{name}.html").write_text("\n".join(out))
+    return outdir / f"{name}.html"
 
 
 def _scalar_names(case):
-    return ["slope_deg", "bands_final", "formation_rotations"] if case["kind"] == "drum" else ["bed_height", "phi_max"]
+    if case["kind"] == "drum":
+        return ["slope_deg", "bands_final", "formation_rotations"]
+    return ["bed_height", "phi_max", "top_time_s"]

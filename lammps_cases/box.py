@@ -33,6 +33,9 @@ def refuse_unrepresentable(ini):
                            key="contact.law")
     if c.get("damping", "normal") != "normal":
         raise SceneRefused("\"literal\": gran/hooke damps the normal relative velocity only", key="contact.damping")
+    if float(s.get("particles", {}).get("inertia_factor", 0.5)) != 0.5:
+        raise SceneRefused(f"{s['particles']['inertia_factor']}: fix nve/sphere disc integrates uniform disks, "
+                           "I = m R^2 / 2, only", key="particles.inertia_factor")
     if s.get("box", {}).get("walls", "particles") != "particles":
         raise SceneRefused("\"smooth\": smooth walls are not set up in the LAMMPS case, which moves walls of "
                            "particles (fix wall/gran would not give the wall particle's mass in m_eff nor the "

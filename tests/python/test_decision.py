@@ -183,3 +183,55 @@ def test_sample_size_known_values():
     assert sample_size_for_equivalence(1.0, 1.0) == 18
     assert sample_size_for_equivalence(1.0, 1.0, paired=True) == 11
     assert sample_size_for_equivalence(1.0, 1.0, true_diff=1.0) is None
+
+
+# ---------------------------------------------------------------- yes/no observables
+
+from compare.decision import proportion_mdd, proportion_power, threshold_test, verdict_proportions  # noqa: E402
+
+
+def test_proportions_equal_and_certain_are_equivalent():
+    r = verdict_proportions(10, 10, 10, 10, margin=0.3)
+    assert r["verdict"] == "equivalent"
+    assert r["ci90"][0] > -0.3 and r["ci90"][1] < 0.3
+    assert r["difference"] == 0.0
+
+
+def test_proportions_opposite_are_different():
+    r = verdict_proportions(0, 10, 10, 10, margin=0.3)
+    assert r["verdict"] == "different"
+    assert r["ci95"][0] > 0.3
+    assert r["difference"] == 1.0  # b - a
+
+
+def test_proportions_with_few_runs_are_inconclusive():
+    # 5 packings each: even 5 of 5 against 5 of 5 cannot bound the difference within 0.3
+    assert verdict_proportions(5, 5, 5, 5, margin=0.3)["verdict"] == "inconclusive"
+    assert verdict_proportions(9, 10, 10, 10, margin=0.3)["verdict"] == "inconclusive"
+
+
+def test_proportion_power_matches_monte_carlo():
+    rng = np.random.default_rng(5)
+    p, n, margin = 0.9, 20, 0.3
+    exact = proportion_power(p, p, n, n, margin)
+    ka, kb = rng.binomial(n, p, 4000), rng.binomial(n, p, 4000)
+    mc = np.mean([verdict_proportions(a, n, b, n, margin)["verdict"] == "equivalent" for a, b in zip(ka, kb)])
+    assert abs(exact - mc) < 0.03
+    assert proportion_power(1.0, 1.0, 8, 8, margin) == pytest.approx(1.0)
+    assert proportion_power(1.0, 1.0, 5, 5, margin) == 0.0  # 5 of 5 each is inconclusive
+
+
+def test_proportion_mdd_shrinks_with_runs():
+    small, large = proportion_mdd(0.5, 10, 10, 0.3), proportion_mdd(0.5, 40, 40, 0.3)
+    assert large < small
+    # the shift found is called different with probability >= 0.8, a shift 0.05 smaller is not
+    assert proportion_power(0.5, 0.5 + large, 40, 40, 0.3, outcome="different") >= 0.8 or \
+        proportion_power(0.5, 0.5 - large, 40, 40, 0.3, outcome="different") >= 0.8
+    assert proportion_power(0.5, 0.5 + large - 0.05, 40, 40, 0.3, outcome="different") < 0.8
+
+
+def test_threshold_test():
+    assert threshold_test(10, 10, 0, 10)["present"]
+    assert threshold_test(10, 10, 0, 10)["p"] == pytest.approx(1 / 184756)  # 1 / C(20, 10)
+    assert not threshold_test(3, 6, 1, 6)["present"]
+    assert not threshold_test(0, 10, 10, 10)["present"]  # one-sided: rising below, not above, is no threshold

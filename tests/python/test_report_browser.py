@@ -12,7 +12,7 @@ import pytest
 
 from compare.browser_check import check, chromium
 from compare.report_html import write_report
-from compare.validate import binomial, compare_binomial, compare_scalar, summary
+from compare.validate import binomial, compare_rows, summary
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = Path(os.environ.get("TEST_OUTPUT_DIR", ROOT / "build" / "test_output"))
@@ -42,14 +42,15 @@ def synthetic_report():
     comps = []
     for f, rows in variants.items():
         a, b = rows["native-verlet"], rows["lammps"]
-        base = {"case": "box", "variant": f, "a_row": "native-verlet", "b_row": "lammps", "gating": True}
-        if f == "3.2Hz":  # compared where every packing convects, as compare/validate.py does
-            comps.append(base | compare_scalar("phi_max", a["summary"]["phi_max"], b["summary"]["phi_max"]))
-        comps.append(base | compare_binomial("convection", a["convection"], b["convection"]))
+        base = {"case": "box", "variant": f, "a_row": "native-verlet", "b_row": "lammps", "gating": True,
+                "why": "same model"}
+        if f == "3.2Hz":
+            comps.append(base | compare_rows("phi_max", a["runs"], b["runs"]))
+        comps.append(base | compare_rows("convecting", a["runs"], b["runs"]))
     return {"suite": "quick", "created": "test", "cases": {"box": {
         "kind": "box", "scene": "scenes/box/f3.0_big.toml", "sets": ["run.duration=8"], "seeds": [1, 2, 3],
-        "variants": variants}}, "comparisons": comps, "verdict": "pass", "failures": [],
-        "gating_scalar_comparisons": 2, "per_comparison_confidence": 0.975}
+        "variants": variants}}, "comparisons": comps, "verdict": "pass", "failures": [], "power_target": 0.8,
+        "thresholds": [], "design": []}
 
 
 def test_report_renders_table_and_images(tmp_path):

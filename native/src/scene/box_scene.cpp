@@ -56,6 +56,8 @@ BoxScene read_fields(SceneFile& f) {
                                        f.origin("particles.radius_min") + "), got " + number_text(s.radius_max));
   s.density = f.positive("particles.density", f.number("particles.density", 1.0));
   s.mass_area = f.choice("particles.mass_rule", {"paper", "area"}, "paper") == "area";
+  // I = inertia_factor m R^2 for the grains and the big disk; 1/2 is a uniform disk.
+  s.inertia_factor = f.positive("particles.inertia_factor", f.number("particles.inertia_factor", 0.5));
   const long seed = f.integer("particles.seed", 1);
   if (seed < 0) f.fail("particles.seed", "must be >= 0");
   s.seed = static_cast<std::uint64_t>(seed);
@@ -207,12 +209,12 @@ ParticleStore<2> box_particles(const BoxScene& s, std::vector<Eigen::Vector2d>& 
   }
   if (s.big) {
     const double m = s.mass(s.big_radius);
-    p.add(big_c, Eigen::Vector2d::Zero(), Ang<2>::Zero(), 2 * s.big_radius, m, 0.5 * m * s.big_radius * s.big_radius,
-          1);
+    p.add(big_c, Eigen::Vector2d::Zero(), Ang<2>::Zero(), 2 * s.big_radius, m,
+          s.inertia_factor * m * s.big_radius * s.big_radius, 1);
   }
   for (const auto& g : grains) {
     const double m = s.mass(g.r);
-    p.add(g.x, g.v, Ang<2>::Zero(), 2 * g.r, m, 0.5 * m * g.r * g.r, 0);  // disk: I = m R^2 / 2
+    p.add(g.x, g.v, Ang<2>::Zero(), 2 * g.r, m, s.inertia_factor * m * g.r * g.r, 0);  // uniform disk: I = m R^2 / 2
   }
   return p;
 }

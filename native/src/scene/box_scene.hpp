@@ -26,6 +26,7 @@ struct BoxScene {
   // [particles]
   long count = 950;
   double radius_min = 0.85, radius_max = 1.15, density = 1.0;
+  double inertia_factor = 0.5;  // I = inertia_factor m R^2 (grains and big disk; 1/2: a uniform disk)
   bool mass_area = false;  // false: m = 2 pi R^2 rho as printed; true: pi R^2 rho
   // false: the grains do not rotate (I = infinity, omega = 0 throughout); the
   // paper's disks rotate (the Omega terms of its Eq. (4)).

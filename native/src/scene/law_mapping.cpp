@@ -132,6 +132,19 @@ LinearMapping map_rapaport_to_linear(const MappingInputs& in) {
   return m;
 }
 
+double linear_overlap_fraction(const MappingInputs& in, const LinearMapping& m, double v) {
+  double worst = 0.0;
+  for (int a = 0; a < 2; ++a) {
+    for (int b = a; b < 2; ++b) {
+      const double reach = m.diameter_scale * 0.5 * (in.d[a] + in.d[b]);
+      worst = std::max(worst, v * std::sqrt(m.pair_meff[a + b] / m.law.pair[a * 2 + b].kn) / reach);
+    }
+    const double reach = m.diameter_scale * 0.5 * (in.d[a] + in.wall_diameter);
+    worst = std::max(worst, v * std::sqrt(m.wall_meff[a] / m.law.wall[a].kn) / reach);
+  }
+  return worst;
+}
+
 ViscElMapping map_linear_to_viscel(const MappingInputs& in, const LinearMapping& lin) {
   ViscElMapping v;
   const double* d = in.d;

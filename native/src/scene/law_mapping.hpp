@@ -96,6 +96,11 @@ double rapaport_stiffness(double dij, double force);
 LinearMapping map_rapaport_to_linear(const MappingInputs& in);
 inline LinearMapping map_rapaport_to_linear(const DrumScene& s) { return map_rapaport_to_linear(mapping_inputs(s)); }
 
+// The deepest overlap, as a fraction of the contact distance, of a head-on
+// collision at speed v under the mapped linear springs (undamped, so an upper
+// bound: delta = v sqrt(m_eff / k_n)), over the species pairs and the wall.
+double linear_overlap_fraction(const MappingInputs& in, const LinearMapping& m, double v);
+
 // YADE's viscoelastic law (contact/viscel.hpp) as near to the linear law as
 // YADE's mixing rule allows (docs/model_mapping.md, "YADE"). Per species s
 // (mean mass m_s): kn = 2 k_n(ss), cn = g_n(ss) per unit mass, cs = x_t g_n(ss)

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# The full cross-engine suite (docs/tolerances.md, "The full suite") as a
+# restartable background job: every engine, 36 drum seeds and eight box
+# packings a frequency (about 8 CPU-hours on this machine), then the same
+# suite's planted errors (--mutants all, about 4 more).
+#
+#   scripts/validate_full.sh [DIR] [LANES]     start, or resume after any interruption
+#
+# DIR (default /var/lib/granular/validate_full) holds the code of the commit
+# the suite started from (DIR/COMMIT, DIR/src, DIR/engine) and the suite's
+# directory DIR/out (runs/ is the cache: a rerun reuses every finished run, so
+# an interrupted suite resumes where it stopped; report.{json,html} and
+# report_mutants.{json,html} at the end). It runs at nice 19, so that it takes only what else the machine leaves.
+set -euo pipefail
+here="$(cd "$(dirname "$0")/.." && pwd)"
+dir="$(realpath -m "${1:-/var/lib/granular/validate_full}")"
+lanes="${2:-2}"
+mkdir -p "$dir/out"
+if [ ! -x "$dir/engine/granular" ]; then
+  cd "$here"
+  if ! git diff --quiet HEAD -- native scenes compare lammps_cases yade_cases CMakeLists.txt; then
+    echo "validate_full: native/, scenes/, compare/, lammps_cases/, yade_cases/ or CMakeLists.txt differ from" \
+         "HEAD; commit first, so the suite's commit is the code it runs" >&2
+    exit 2
+  fi
+  commit="$(git rev-parse HEAD)"
+  rm -rf "$dir/src" "$dir/engine-build"
+  mkdir -p "$dir/src" "$dir/engine"
+  git archive "$commit" | tar -x -C "$dir/src"
+  cmake -S "$dir/src" -B "$dir/engine-build" -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE=/usr/bin/python3 >/dev/null
+  cmake --build "$dir/engine-build" -j"$lanes" --target granular >/dev/null
+  cp "$dir/engine-build/granular" "$dir/engine/granular"
+  echo "$commit" >"$dir/COMMIT"
+fi
+cd "$dir/src"
+export GRANULAR_BIN="$dir/engine/granular"
+# The suite's exit status says whether it passed; the mutants run either way.
+nice -n 19 /usr/bin/python3 -m compare validate --suite full -o "$dir/out" --lanes "$lanes" || true
+exec nice -n 19 /usr/bin/python3 -m compare validate --suite full -o "$dir/out" --lanes "$lanes" --mutants all

@@ -1,0 +1,138 @@
+"""The cross-engine suite's verdict layer (compare/validate.py): paired and
+yes/no comparisons, the power analysis that decides which comparisons gate,
+the planted-error detection table and the false-alarm count, on synthetic
+runs with known answers."""
+import numpy as np
+import pytest
+
+from compare import validate
+from compare.validate import (MARGINS, MUTANTS, SUITES, Case, compare_rows, design_of, design_power,
+                              detection_table, false_alarm_summary, mutant_sets, required_runs)
+
+
+def runs(values, key="slope_deg"):
+    return [{"seed": s + 1, "ok": True, key: v} for s, v in enumerate(values)]
+
+
+def test_paired_rows_equal_up_to_noise_are_equivalent():
+    rng = np.random.default_rng(3)
+    base = rng.normal(17.0, 2.0, 12)  # a large spread shared by the pair (same packings)
+    a = runs(base + rng.normal(0, 0.3, 12))
+    b = runs(base + rng.normal(0, 0.3, 12))
+    r = compare_rows("slope_deg", a, b, paired=True)
+    assert r["verdict"] == "equivalent" and r["paired"]
+    # unpaired, the shared spread is not removed: the same runs cannot be shown equivalent within 1.5
+    assert compare_rows("slope_deg", a, b, paired=False)["verdict"] != "equivalent"
+
+
+def test_a_shift_beyond_the_margin_is_different():
+    rng = np.random.default_rng(4)
+    base = rng.normal(17.0, 1.0, 10)
+    r = compare_rows("slope_deg", runs(base), runs(base + 4.0 + rng.normal(0, 0.3, 10)))
+    assert r["verdict"] == "different" and r["difference"] == pytest.approx(4.0, abs=0.3)
+
+
+def test_pairs_use_only_seeds_defined_in_both_rows():
+    a = runs([10.0, None, 12.0, 14.0], key="formation_rotations")
+    b = runs([10.5, 11.0, None, 14.5], key="formation_rotations")
+    r = compare_rows("formation_rotations", a, b)
+    assert (r["n_a"], r["n_b"]) == (2, 2)
+    assert r["difference"] == pytest.approx(0.5)
+    assert r["a"]["undefined"] == 1 and r["b"]["undefined"] == 1
+
+
+def test_yes_no_observables_compare_fractions():
+    a = runs([True] * 10, key="rose")
+    b = runs([False] * 10, key="rose")
+    r = compare_rows("rose", a, b)
+    assert r["verdict"] == "different" and r["difference"] == -1.0
+    assert compare_rows("rose", a, a)["verdict"] == "equivalent"
+
+
+def test_required_runs_reach_the_power_target():
+    for obs, spread in (("slope_deg", 0.8), ("phi_max", 2.7), ("formation_rotations", 8.9), ("rose", 1.0)):
+        n = required_runs(obs, spread)
+        assert design_power(obs, spread, n) >= validate.POWER
+        assert design_power(obs, spread, n - 1) < validate.POWER
+
+
+def test_a_comparison_gates_only_with_power():
+    case = Case("c", "drum", "scenes/drum/A.toml", [], list(range(1, 11)), [],
+                design={("", "slope_deg"): 0.8, ("", "formation_rotations"): 8.9})
+    assert design_of(case, "", "slope_deg", 10)["gating"]
+    d = design_of(case, "", "formation_rotations", 10)
+    assert not d["gating"] and d["power"] < 0.5 and "reported" in d["why"]
+    assert not design_of(case, "", "bands_final", 10)["gating"]  # no designed spread
+
+
+def test_every_suite_observable_has_a_margin_and_a_design():
+    for suite, cases in SUITES.items():
+        for case in cases:
+            for variant, observables in case.compared.items():
+                for k in observables:
+                    assert k in MARGINS, (suite, case.name, k)
+                    assert (variant, k) in case.design, (suite, case.name, variant, k)
+
+
+def test_the_quick_suite_gates_the_three_headline_observables():
+    quick = {c.name: c for c in SUITES["quick"]}
+    gating = {(c.name, v, k) for c in quick.values() for v, ks in c.compared.items() for k in ks
+              if design_of(c, v, k, len(c.seeds))["gating"]}
+    assert ("drum_short", "", "slope_deg") in gating
+    assert ("drum_short", "", "bands_final") in gating
+    assert ("box_rise", "3.2Hz", "rose") in gating and ("box_rise", "2.6Hz", "rose") in gating
+    assert quick["box_rise"].threshold == ("3.2Hz", "2.6Hz")
+
+
+def test_mutant_overrides_come_from_the_resolved_scene():
+    drum = SUITES["quick"][0]
+    assert mutant_sets(drum, "native-linear", "coulomb_half") == ["contact.mu_max=0.25"]
+    assert mutant_sets(drum, "native-linear", "omega_0.9") == ["drum.omega=0.45"]
+    assert mutant_sets(drum, "native-linear", "amplitude_1.8") is None  # a box-only error
+    box = SUITES["quick"][1]
+    assert mutant_sets(box, "native-verlet", "amplitude_1.8") == ["shaking.amplitude=1.8"]
+    assert mutant_sets(box, "native-verlet", "inertia") == ["particles.inertia_factor=0.25"]
+    assert set(MUTANTS) >= {"wall_friction_big_half", "coulomb_half", "inertia", "damping_double",
+                            "wall_friction_off", "amplitude_1.8", "gravity_5pc", "omega_0.9"}
+
+
+def mutant_result(mutant, obs, effect_verdict, verdict, gating=True):
+    return {"mutant": mutant, "case": "drum_short", "variant": "", "observable": obs, "gating": gating,
+            "effect_verdict": effect_verdict, "verdict": verdict, "detected": verdict == "different",
+            "fails_suite": verdict != "equivalent"}
+
+
+def test_detection_table_lists_missed_errors():
+    res = [mutant_result("coulomb_half", "slope_deg", "different", "different"),
+           mutant_result("coulomb_half", "bands_final", "different", "inconclusive"),
+           mutant_result("omega_0.9", "slope_deg", "equivalent", "equivalent"),
+           mutant_result("omega_0.9", "formation_rotations", "different", "equivalent", gating=False)]
+    t = {d["mutant"]: d for d in detection_table(res)}
+    assert t["coulomb_half"]["detected"] == ["drum_short slope_deg"]
+    assert t["coulomb_half"]["missed"] == ["drum_short bands_final"]
+    assert t["coulomb_half"]["suite_fails"]
+    assert t["omega_0.9"]["missed"] == [] and not t["omega_0.9"]["suite_fails"]  # non-gating effects not counted
+
+
+def test_false_alarm_summary_counts_per_comparison_and_per_repeat():
+    res = []
+    for rep in range(20):
+        res.append({"case": "box_rise", "row": "native-verlet", "repeat": rep, "variant": "3.2Hz",
+                    "observable": "phi_max", "gating": True, "verdict": "different" if rep == 3 else "equivalent"})
+        res.append({"case": "box_rise", "row": "native-verlet", "repeat": rep, "variant": "3.2Hz",
+                    "observable": "rose", "gating": True, "verdict": "inconclusive" if rep in (3, 4) else "equivalent"})
+    s = false_alarm_summary(res, 20)
+    assert s["per_comparison"]["box_rise 3.2Hz native-verlet phi_max"]["different"] == 1
+    assert s["per_comparison"]["box_rise 3.2Hz native-verlet rose"]["inconclusive"] == 2
+    pair = s["per_pair"]["box_rise native-verlet"]
+    assert pair == {"repeats": 20, "any_different": 1, "all_equivalent": 18}
+
+
+def test_false_alarm_seeds_are_fresh_and_disjoint():
+    case = SUITES["quick"][0]
+    seen = set(case.seeds)
+    for rep in range(20):
+        for g in (0, 1):
+            s = set(validate.false_alarm_seeds(case, rep, g))
+            assert len(s) == len(case.seeds) and not (s & seen)
+            seen |= s
