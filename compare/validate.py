@@ -132,7 +132,7 @@ SUITES = {
         # The big disk 15 cm above the floor (two to three rows of grains under it
         # after settling): at 3.2 Hz the rolls carry it to the top in 5-10 s in every
         # packing and engine; at 2.6 Hz, below the convection onset, in none
-        # (docs/shaken_box.md, "R = 4 cm moving up immediately").
+        # (docs/shaken_box.md, "R = 4 cm").
         Case("box_rise", "box", "scenes/box/f3.0_big.toml", ["run.duration=12", "big.gap=15"],
              list(range(1, 11)), ["native-verlet", "lammps", "native-viscel", "yade"],
              frequencies=[2.6, 3.2], timeout=1800,
