@@ -147,6 +147,8 @@ def main(argv=None):
     va.add_argument("--false-alarms", type=int, default=0, metavar="R",
                     help="also run the native rows of the gating pairs on 2R groups of fresh seeds and count how "
                          "often a group is called different from another; writes DIR/report_false_alarmsR.{json,html}")
+    va.add_argument("--markdown", default=None, metavar="REPORT",
+                    help="print DIR/REPORT.json (report, report_mutants, ...) as Markdown tables and exit")
     va.add_argument("--design", action="store_true",
                     help="print the suite's power analysis (margin, designed spread, runs needed, power) and exit")
     vw = sub.add_parser("views", help="drum: the particles seen from above, below or obliquely")
@@ -189,6 +191,11 @@ def main(argv=None):
                 print(f"{d['case']:12s} {d['variant']:6s} {d['observable']:20s} margin {d['margin']:<5g} "
                       f"spread {d['spread']!s:6s} runs needed {d['required']!s:5s} runs {d['n']:3d} "
                       f"power {d['power']:.2f}  {'gating' if d['gating'] else 'reported'}")
+            return 0
+        if args.markdown:
+            import json as _json
+            from .validate import report_markdown
+            print(report_markdown(_json.loads((Path(args.output) / f"{args.markdown}.json").read_text())), end="")
             return 0
         mutants = list(MUTANTS) if args.mutants == "all" else (args.mutants.split(",") if args.mutants else [])
         rep = validate(args.suite, args.output, lanes=args.lanes,

@@ -96,21 +96,25 @@ def test_mutant_overrides_come_from_the_resolved_scene():
                             "wall_friction_off", "amplitude_1.8", "gravity_5pc", "omega_0.9"}
 
 
-def mutant_result(mutant, obs, effect_verdict, verdict, gating=True):
-    return {"mutant": mutant, "case": "drum_short", "variant": "", "observable": obs, "gating": gating,
-            "effect_verdict": effect_verdict, "verdict": verdict, "detected": verdict == "different",
-            "fails_suite": verdict != "equivalent"}
+def mutant_result(mutant, obs, effect, margin, verdict, gating=True):
+    return {"mutant": mutant, "case": "drum_short", "variant": "", "row": "native-linear", "observable": obs,
+            "gating": gating, "effect": effect, "margin": margin, "verdict": verdict,
+            "detected": verdict == "different", "fails_suite": verdict != "equivalent"}
 
 
 def test_detection_table_lists_missed_errors():
-    res = [mutant_result("coulomb_half", "slope_deg", "different", "different"),
-           mutant_result("coulomb_half", "bands_final", "different", "inconclusive"),
-           mutant_result("omega_0.9", "slope_deg", "equivalent", "equivalent"),
-           mutant_result("omega_0.9", "formation_rotations", "different", "equivalent", gating=False)]
+    res = [mutant_result("coulomb_half", "slope_deg", -6.6, 1.5, "different"),
+           mutant_result("coulomb_half", "bands_final", -2.0, 1.0, "inconclusive"),
+           mutant_result("damping_double", "slope_deg", 0.7, 1.5, "different"),  # caught below the margin
+           mutant_result("omega_0.9", "slope_deg", -0.5, 1.5, "equivalent"),
+           mutant_result("omega_0.9", "formation_rotations", -9.0, 5.0, "equivalent", gating=False)]
     t = {d["mutant"]: d for d in detection_table(res)}
-    assert t["coulomb_half"]["detected"] == ["drum_short slope_deg"]
-    assert t["coulomb_half"]["missed"] == ["drum_short bands_final"]
+    assert t["coulomb_half"]["effect_beyond_margin"] == ["drum_short native-linear slope_deg",
+                                                         "drum_short native-linear bands_final"]
+    assert t["coulomb_half"]["detected"] == ["drum_short native-linear slope_deg"]
+    assert t["coulomb_half"]["missed"] == ["drum_short native-linear bands_final"]
     assert t["coulomb_half"]["suite_fails"]
+    assert t["damping_double"]["effect_beyond_margin"] == [] and t["damping_double"]["detected"]
     assert t["omega_0.9"]["missed"] == [] and not t["omega_0.9"]["suite_fails"]  # non-gating effects not counted
 
 
