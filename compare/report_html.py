@@ -35,11 +35,17 @@ def _ok_runs(r):
     return [x for x in r["runs"] if x["ok"]]
 
 
+def _main_rows(rows):
+    """The suite's own rows, without planted errors (ROW+MUTANT) and false-alarm groups (ROW@rR.G)."""
+    return {k: v for k, v in rows.items() if "+" not in k and "@" not in k}
+
+
 def drum_figures(name, case, outdir):
     from .reader import read_run
     from .spacetime import SpaceTime
     written = []
     for vname, rows in case["variants"].items():
+        rows = _main_rows(rows)
         names = [r for r in rows if _ok_runs(rows[r])]
         if not names:
             continue
@@ -77,7 +83,7 @@ def box_figures(name, case, outdir):
     written = []
     variants = case["variants"]
     top = max(variants, key=lambda v: float(v.rstrip("Hz")))
-    rows = variants[top]
+    rows = _main_rows(variants[top])
     fig = _fig(6, 4.5)
     ax = fig.add_subplot()
     for row, r in rows.items():
@@ -243,15 +249,15 @@ def write_report(report, outdir, name="report"):
             out.append(f"<tr><td>{esc(k)}: any gating comparison</td><td>{e['any_different']}/{e['repeats']}</td>"
                        f"<td>–</td><td>all: {e['all_equivalent']}/{e['repeats']}</td></tr>")
         out.append("</table>")
-    for name, case in report["cases"].items():
-        out.append(f"<h2>{esc(name)} ({esc(case['kind'])}: {esc(case['scene'])} {esc(' '.join(case['sets']))}; "
+    for cname, case in report["cases"].items():
+        out.append(f"<h2>{esc(cname)} ({esc(case['kind'])}: {esc(case['scene'])} {esc(' '.join(case['sets']))}; "
                    f"seeds {case['seeds']})</h2>")
         out.append("<table class='rows'><tr><th>variant</th><th>row</th><th>runs ok</th>"
                    + "".join(f"<th>{esc(k)}</th>" for k in _scalar_names(case))
                    + ("<th>convecting</th><th>rose</th>" if case["kind"] == "box" else "<th>formed</th>")
                    + "<th>at Coulomb cap</th><th>particle-steps/s (whole run)</th></tr>")
         for vname, rows in case["variants"].items():
-            for row, r in rows.items():
+            for row, r in _main_rows(rows).items():
                 oks = _ok_runs(r)
                 cells = [f"{len(oks)}/{len(r['runs'])}" + (f" (failed: {r['failed_runs']})" if r["failed_runs"] else "")]
                 for k in _scalar_names(case):
@@ -276,7 +282,7 @@ def write_report(report, outdir, name="report"):
                     return f"{_fmt(x['threshold'])} [{_fmt(x['lo'])}, {_fmt(x['hi'])}] {x.get('threshold_position') or ''}"
                 out.append(f"<tr><td>{esc(row)}</td><td>{esc(th(t['convection']))}</td><td>{esc(th(t['rise']))}</td></tr>")
             out.append("</table>")
-        for p in figs.get(name, []):
+        for p in figs.get(cname, []):
             out.append(f"<p><img src='{esc(Path(p).name)}' alt='{esc(Path(p).stem)}'></p>")
         for e in case.get("figure_errors", []):
             out.append(f"<p class='fail'>figure not drawn: {esc(e)}</p>")

@@ -55,6 +55,7 @@ def synthetic_report():
 
 def test_report_renders_table_and_images(tmp_path):
     page = write_report(synthetic_report(), tmp_path)
+    assert page == tmp_path / "report.html" and page.exists()  # named after the report, not after a case
     res = check(page, screenshot=OUT / "report_screenshot.png")
     assert res["rows"] == 3
     assert res["images_total"] == 3 and res["images_loaded"] == 3  # Phi(D), heights, threshold
