@@ -245,13 +245,14 @@ def _newcombe(k_b, n_b, k_a, n_a, alpha):
     return float(lo), float(hi)
 
 
-def verdict_proportions(k_a, n_a, k_b, n_b, margin, alpha=0.05):
+def verdict_proportions(k_a, n_a, k_b, n_b, margin, alpha=0.05, with_mdd=True):
     """Verdict on the difference of two fractions, k_b/n_b - k_a/n_a (e.g. the
     packings in which the big disk rose, in two engines), by the same rule as
     the scalar verdicts, with Newcombe's hybrid score intervals at 1 - 2 alpha
     (equivalence) and 1 - alpha (difference). ``mdd`` is the smallest true
     difference from the pooled fraction that is called different with
-    probability 0.8 (exact, :func:`proportion_power`)."""
+    probability 0.8 (exact, :func:`proportion_power`; None with ``with_mdd=False``,
+    which saves its search)."""
     k_a, n_a, k_b, n_b = _check_counts(k_a, n_a, k_b, n_b, margin)
     if n_a < 2 or n_b < 2:
         diff = k_b / n_b - k_a / n_a if n_a and n_b else None
@@ -260,7 +261,7 @@ def verdict_proportions(k_a, n_a, k_b, n_b, margin, alpha=0.05):
     diff = k_b / n_b - k_a / n_a
     ci90 = _newcombe(k_b, n_b, k_a, n_a, 2 * alpha)
     ci95 = _newcombe(k_b, n_b, k_a, n_a, alpha)
-    mdd = proportion_mdd((k_a + k_b) / (n_a + n_b), n_a, n_b, margin, alpha)
+    mdd = proportion_mdd((k_a + k_b) / (n_a + n_b), n_a, n_b, margin, alpha) if with_mdd else None
     return _decide(diff, ci90, ci95, None, margin, alpha, n_a, n_b, mdd)
 
 
