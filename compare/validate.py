@@ -146,7 +146,8 @@ SUITES = {
              compared={"2.6Hz": ["rose", "convecting", "bed_height"],
                        "3.2Hz": ["rose", "convecting", "phi_max", "top_time_s"]},
              design={("2.6Hz", "rose"): 0.0, ("2.6Hz", "convecting"): 0.16, ("2.6Hz", "bed_height"): 0.19,
-                     ("3.2Hz", "rose"): 1.0, ("3.2Hz", "convecting"): 1.0, ("3.2Hz", "phi_max"): 2.7,
+                     # rose at 3.2 Hz: 786 of the false-alarm study's 800 runs (docs/validation.md)
+                     ("3.2Hz", "rose"): 0.98, ("3.2Hz", "convecting"): 1.0, ("3.2Hz", "phi_max"): 2.7,
                      ("3.2Hz", "top_time_s"): 1.4},
              threshold=("3.2Hz", "2.6Hz")),
     ],
