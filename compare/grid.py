@@ -9,7 +9,7 @@ RUN.h5.done marker, or a validation run's RUN.json). Per set-up (and
 frequency) the same observables and statistics as `compare validate`: mean and
 sample standard deviation per scalar, k of n with the 95 % Clopper-Pearson
 interval for the box's rise and convection. With --reference, each other
-set-up's difference from it, judged by the tolerances of docs/tolerances.md.
+set-up's difference from it, against the margins of docs/tolerances.md.
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import re
 from pathlib import Path
 
 from ._common import clean_json
-from .validate import TOLERANCES, binomial, box_observables, drum_observables, summary
+from .validate import MARGINS, binomial, box_observables, drum_observables, summary
 
 NAME = re.compile(r"^(?P<setup>.+?)(?:_f(?P<freq>[0-9.]+))?_s(?P<seed>\d+)$")
 SCALARS = {"drum": ["slope_deg", "bands_final", "formation_rotations"], "box": ["phi_max", "bed_height"]}
@@ -75,8 +75,7 @@ def grid(paths, reference=None):
                 a, b = base["summary"][k]["mean"], s["mean"]
                 if a is None or b is None:
                     continue
-                how, tol = TOLERANCES[k]
-                limit = tol * abs(a) if how == "rel" else tol
+                limit = MARGINS[k]
                 r["against_reference"][k] = {"difference": b - a, "tolerance": limit, "within": abs(b - a) <= limit}
             if r["kind"] == "box":
                 for k in ("rose", "convecting"):
