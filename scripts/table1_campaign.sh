@@ -32,22 +32,7 @@ if ((status)); then
 fi
 
 mkdir -p "$dir/runs"
-if [ ! -x "$dir/engine/granular" ]; then
-  cd "$here"
-  if ! git diff --quiet HEAD -- native scenes CMakeLists.txt; then
-    echo "table1_campaign: native/, scenes/ or CMakeLists.txt differ from HEAD; commit first, so the" \
-         "campaign's commit is the code it runs" >&2
-    exit 2
-  fi
-  commit="$(git rev-parse HEAD)"
-  rm -rf "$dir/src" "$dir/engine-build"
-  mkdir -p "$dir/src" "$dir/engine"
-  git archive "$commit" | tar -x -C "$dir/src"
-  cmake -S "$dir/src" -B "$dir/engine-build" -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE=/usr/bin/python3 >/dev/null
-  cmake --build "$dir/engine-build" -j"$lanes" --target granular >/dev/null
-  cp "$dir/engine-build/granular" "$dir/engine/granular"
-  echo "$commit" >"$dir/COMMIT"
-fi
+"$here/scripts/pin_commit.sh" "$dir" "$lanes" table1_campaign native scenes CMakeLists.txt
 
 # One job per Table I run, cheapest first (particle-steps at the default step).
 jobs="$dir/jobs.txt"

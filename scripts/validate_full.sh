@@ -16,22 +16,7 @@ here="$(cd "$(dirname "$0")/.." && pwd)"
 dir="$(realpath -m "${1:-/var/lib/granular/validate_full}")"
 lanes="${2:-2}"
 mkdir -p "$dir/out"
-if [ ! -x "$dir/engine/granular" ]; then
-  cd "$here"
-  if ! git diff --quiet HEAD -- native scenes compare lammps_cases yade_cases CMakeLists.txt; then
-    echo "validate_full: native/, scenes/, compare/, lammps_cases/, yade_cases/ or CMakeLists.txt differ from" \
-         "HEAD; commit first, so the suite's commit is the code it runs" >&2
-    exit 2
-  fi
-  commit="$(git rev-parse HEAD)"
-  rm -rf "$dir/src" "$dir/engine-build"
-  mkdir -p "$dir/src" "$dir/engine"
-  git archive "$commit" | tar -x -C "$dir/src"
-  cmake -S "$dir/src" -B "$dir/engine-build" -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE=/usr/bin/python3 >/dev/null
-  cmake --build "$dir/engine-build" -j"$lanes" --target granular >/dev/null
-  cp "$dir/engine-build/granular" "$dir/engine/granular"
-  echo "$commit" >"$dir/COMMIT"
-fi
+"$here/scripts/pin_commit.sh" "$dir" "$lanes" validate_full native scenes compare lammps_cases yade_cases CMakeLists.txt
 cd "$dir/src"
 export GRANULAR_BIN="$dir/engine/granular"
 # The suite's exit status says whether it passed; the mutants run either way.
