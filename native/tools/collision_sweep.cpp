@@ -39,9 +39,9 @@ template <class Sim>
 Outcome collide(Sim sim, double d, double m, double inertia, double v0, double dt) {
   constexpr int D = Sim::kDim;
   using V = Vec<D>;
-  sim.box.lo = V::Constant(-50.0);
-  sim.box.hi = V::Constant(50.0);
-  sim.box.finalize();
+  sim.domain.lo = V::Constant(-50.0);
+  sim.domain.hi = V::Constant(50.0);
+  sim.domain.finalize();
   sim.skin = 0.05 * d + 4.0 * v0 * dt;  // each particle moves v0 dt / 2 a step at most
   sim.integrator.dt = dt;
   const double rc = decltype(sim.law)::range(d, d);
@@ -154,7 +154,7 @@ int main(int argc, char** argv) {
   };
   const double ph_tc = ph_exact(true).tc;
   methods.push_back({"box poeschel-herrmann gear5", ph(Gear5<2>{}), ph_exact, ph_tc, bs.dt});
-  methods.push_back({"box poeschel-herrmann verlet", ph(Leapfrog<2>{}), ph_exact, ph_tc, bs.dt});
+  methods.push_back({"box poeschel-herrmann leapfrog", ph(Leapfrog<2>{}), ph_exact, ph_tc, bs.dt});
 
   json out = json::array();
   const std::vector<double> per_contact = {4, 6, 8, 12, 16, 24, 32, 48, 64, 100, 150, 250, 400, 1000};

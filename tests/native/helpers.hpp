@@ -31,10 +31,10 @@ void add_sphere(Sim& sim, const Eigen::Vector3d& x, const Eigen::Vector3d& v, co
 
 template <class Sim>
 void open_box(Sim& sim, double half) {
-  sim.box.lo = Eigen::Vector3d::Constant(-half);
-  sim.box.hi = Eigen::Vector3d::Constant(half);
-  sim.box.periodic = {false, false, false};
-  sim.box.finalize();
+  sim.domain.lo = Eigen::Vector3d::Constant(-half);
+  sim.domain.hi = Eigen::Vector3d::Constant(half);
+  sim.domain.periodic = {false, false, false};
+  sim.domain.finalize();
 }
 
 // Root of f on [a, b] by bisection to machine precision.

@@ -356,10 +356,10 @@ TEST(BatchKernel, PairLoopMatchesDirectSum) {
     omp_set_num_threads(threads);
     Sim sim;
     sim.law = linear_law<3>();
-    sim.box.lo = Eigen::Vector3d(-4, -6, -4);
-    sim.box.hi = Eigen::Vector3d(4, 6, 4);
-    sim.box.periodic = {false, true, false};
-    sim.box.finalize();
+    sim.domain.lo = Eigen::Vector3d(-4, -6, -4);
+    sim.domain.hi = Eigen::Vector3d(4, 6, 4);
+    sim.domain.periodic = {false, true, false};
+    sim.domain.finalize();
     std::mt19937_64 gen(7);
     std::uniform_real_distribution<double> u(0.0, 1.0);
     for (int i = 0; i < 700; ++i) {
@@ -376,7 +376,7 @@ TEST(BatchKernel, PairLoopMatchesDirectSum) {
     for (std::size_t i = 0; i < p.size(); ++i)
       for (std::size_t j = i + 1; j < p.size(); ++j) {
         const Eigen::Vector3d raw = p.x[i] - p.x[j];
-        const Eigen::Vector3d dr = sim.box.min_image(raw);
+        const Eigen::Vector3d dr = sim.domain.min_image(raw);
         const double rc = LinearLaw<3>::range(p.d[i], p.d[j]);
         if (dr.squaredNorm() >= rc * rc) continue;
         ++contacts;

@@ -109,15 +109,15 @@ TEST(Checkpoint, BoxGearResumesBitwise) {
   omp_set_num_threads(2);
   const BoxScene s = box({"particles.count=200", "box.width=24", "run.settle=0.05", "integrator.kind=gear",
                           "integrator.dt=5e-5"});
-  ASSERT_TRUE(s.gear);
+  ASSERT_EQ(s.integrator, "gear");
   // 0.05 s settling = 1000 steps; checkpoint while shaking
   check_resume<BoxSim>([&] { return make_box(s); }, 1500, 3000, "box_gear.ckpt");
 }
 
-TEST(Checkpoint, BoxVerletResumesBitwise) {
+TEST(Checkpoint, BoxLeapfrogResumesBitwise) {
   omp_set_num_threads(1);
-  const BoxScene s = box({"particles.count=200", "box.width=24", "run.settle=0.05", "integrator.kind=verlet"});
-  check_resume<BoxSim>([&] { return make_box(s); }, 1500, 3000, "box_verlet.ckpt");
+  const BoxScene s = box({"particles.count=200", "box.width=24", "run.settle=0.05", "integrator.kind=leapfrog"});
+  check_resume<BoxSim>([&] { return make_box(s); }, 1500, 3000, "box_leapfrog.ckpt");
 }
 
 // Smooth walls keep no state: the shaker's time is the run's.
@@ -260,7 +260,7 @@ TEST(Advance, InOneGoIsStepByStepBitwise) {
     omp_set_num_threads(threads);
     const DrumScene d = drum({"drum.length=16"});
     check_advance<DrumSim>([&] { return make_drum(d); }, {1, 37, 900, 2});
-    for (const char* kind : {"integrator.kind=verlet", "integrator.kind=gear"}) {
+    for (const char* kind : {"integrator.kind=leapfrog", "integrator.kind=gear"}) {
       SCOPED_TRACE(kind);
       const BoxScene s = box({"particles.count=200", "box.width=24", "run.settle=0.05", kind});
       check_advance<BoxSim>([&] { return make_box(s); }, {1, 1499, 1500});

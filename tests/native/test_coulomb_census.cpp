@@ -17,9 +17,9 @@ namespace {
 
 template <class Sim>
 void open_box(Sim& sim, double half = 20.0) {
-  sim.box.lo = Sim::V::Constant(-half);
-  sim.box.hi = Sim::V::Constant(half);
-  sim.box.finalize();
+  sim.domain.lo = Sim::V::Constant(-half);
+  sim.domain.hi = Sim::V::Constant(half);
+  sim.domain.finalize();
   sim.skin = 0.1;
   sim.integrator.dt = 1e-4;
 }

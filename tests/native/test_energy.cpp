@@ -27,7 +27,7 @@ double potential(const FreeSim& sim) {
   double u = 0.0;
   for (std::size_t i = 0; i < sim.p.size(); ++i)
     for (std::size_t j = i + 1; j < sim.p.size(); ++j) {
-      const double r = sim.box.min_image(sim.p.x[i] - sim.p.x[j]).norm();
+      const double r = sim.domain.min_image(sim.p.x[i] - sim.p.x[j]).norm();
       u += Law3::potential(r, 0.5 * (sim.p.d[i] + sim.p.d[j]));
     }
   return u;
@@ -39,10 +39,10 @@ double potential(const FreeSim& sim) {
 void dense_packing(FreeSim& sim, double dt) {
   const int nc = 6;
   const double a = std::cbrt(4.0 / 1.1), side = nc * a;
-  sim.box.lo = Eigen::Vector3d::Zero();
-  sim.box.hi = Eigen::Vector3d::Constant(side);
-  sim.box.periodic = {true, true, true};
-  sim.box.finalize();
+  sim.domain.lo = Eigen::Vector3d::Zero();
+  sim.domain.hi = Eigen::Vector3d::Constant(side);
+  sim.domain.periodic = {true, true, true};
+  sim.domain.finalize();
   sim.law = Law3::from_paper(0.0, 0.0, 0.0, 0.0, 0.0, 0.5);  // gamma_n = gamma_s = 0
   sim.integrator.dt = dt;
   sim.skin = 0.3;
@@ -104,13 +104,13 @@ TEST(Energy, LeapfrogIsTimeReversible) {
   for (std::size_t i = 0; i < sim.p.size(); ++i) x0[sim.p.id[i]] = sim.p.x[i];
   for (int s = 0; s < 200; ++s) sim.step();
   double moved = 0.0;
-  for (std::size_t i = 0; i < sim.p.size(); ++i) moved = std::max(moved, sim.box.min_image(sim.p.x[i] - x0[sim.p.id[i]]).norm());
+  for (std::size_t i = 0; i < sim.p.size(); ++i) moved = std::max(moved, sim.domain.min_image(sim.p.x[i] - x0[sim.p.id[i]]).norm());
   for (auto& v : sim.p.v) v = -v;
   for (auto& w : sim.p.w) w = -w;
   sim.init();  // forces at the reversed state (positions unchanged)
   for (int s = 0; s < 200; ++s) sim.step();
   double err = 0.0;
-  for (std::size_t i = 0; i < sim.p.size(); ++i) err = std::max(err, sim.box.min_image(sim.p.x[i] - x0[sim.p.id[i]]).norm());
+  for (std::size_t i = 0; i < sim.p.size(); ++i) err = std::max(err, sim.domain.min_image(sim.p.x[i] - x0[sim.p.id[i]]).norm());
   EXPECT_GT(moved, 0.3);
   EXPECT_LT(err, 1e-9);
 }

@@ -30,9 +30,9 @@ double disk_mass(double r) { return 2.0 * M_PI * r * r; }  // m = 2 pi R^2 rho, 
 
 template <class Sim>
 void set_up(Sim& sim, double dt, double gravity) {
-  sim.box.lo = Eigen::Vector2d(-40, -40);
-  sim.box.hi = Eigen::Vector2d(40, 40);
-  sim.box.finalize();
+  sim.domain.lo = Eigen::Vector2d(-40, -40);
+  sim.domain.hi = Eigen::Vector2d(40, 40);
+  sim.domain.finalize();
   sim.skin = 0.2;
   sim.law.young = kY;
   sim.law.gamma_n = kGammaN;
@@ -231,7 +231,7 @@ TEST(FlatBoxWalls, GrainRidesAGentlyShakenFloorGear) {
   expect_rides_the_floor<Gear5>();
 }
 
-TEST(FlatBoxWalls, GrainRidesAGentlyShakenFloorVerlet) {
+TEST(FlatBoxWalls, GrainRidesAGentlyShakenFloorLeapfrog) {
   omp_set_num_threads(1);
   expect_rides_the_floor<Leapfrog>();
 }

@@ -32,9 +32,9 @@ void add_disk(Sim& sim, Eigen::Vector2d x, Eigen::Vector2d v, double r, double w
 
 template <class Sim>
 void open_box(Sim& sim) {
-  sim.box.lo = Eigen::Vector2d(-50, -50);
-  sim.box.hi = Eigen::Vector2d(50, 50);
-  sim.box.finalize();
+  sim.domain.lo = Eigen::Vector2d(-50, -50);
+  sim.domain.hi = Eigen::Vector2d(50, 50);
+  sim.domain.finalize();
   sim.skin = 0.1;
 }
 
@@ -87,7 +87,7 @@ Outcome analytic(double r1, double r2) {
 
 // The damping switches on and off with the contact (a jump in the force), so
 // both integrators are first order in the contact's start and end; the steps
-// below resolve a contact of 3.2 ms with 1600 (Gear) and 3200 (Verlet) steps.
+// below resolve a contact of 3.2 ms with 1600 (Gear) and 3200 (leapfrog) steps.
 // At the paper's dt = 5e-5 (64 steps) the errors are ~2e-3 (PaperStepAccuracy).
 template <class Integrator>
 void expect_analytic_collisions(double dt) {
@@ -102,14 +102,14 @@ void expect_analytic_collisions(double dt) {
 
 TEST(LinearLaw, TwoDiskCollisionGear) { expect_analytic_collisions<Gear5<2>>(2e-6); }
 
-TEST(LinearLaw, TwoDiskCollisionVerlet) { expect_analytic_collisions<Leapfrog<2>>(1e-6); }
+TEST(LinearLaw, TwoDiskCollisionLeapfrog) { expect_analytic_collisions<Leapfrog<2>>(1e-6); }
 
 TEST(LinearLaw, PaperStepAccuracy) {
   omp_set_num_threads(1);
   const auto ref = analytic(1.0, 1.0);
   const auto g = collide<Gear5<2>>(5e-5, 1.0, 1.0, 10.0);
   const auto v = collide<Leapfrog<2>>(5e-5, 1.0, 1.0, 10.0);
-  std::printf("dt = 5e-5: Gear e %.6f t_c %.6e; Verlet e %.6f t_c %.6e; analytic e %.6f t_c %.6e\n", g.restitution,
+  std::printf("dt = 5e-5: Gear e %.6f t_c %.6e; leapfrog e %.6f t_c %.6e; analytic e %.6f t_c %.6e\n", g.restitution,
               g.duration, v.restitution, v.duration, ref.restitution, ref.duration);
   // 64 steps per contact: within 1 % for both (measured figures in docs/shaken_box.md)
   EXPECT_NEAR(g.restitution, ref.restitution, 0.01 * ref.restitution);
@@ -171,11 +171,11 @@ TEST(Integrators, GearShowsItsDesignOrder) {
   EXPECT_GT(order(e2, e3), 4.5);
 }
 
-TEST(Integrators, VerletIsSecondOrder) {
+TEST(Integrators, LeapfrogIsSecondOrder) {
   omp_set_num_threads(1);
   const double e1 = oscillator_error<Leapfrog<2, ShakerMotion<2>>>(2e-4), e2 = oscillator_error<Leapfrog<2, ShakerMotion<2>>>(1e-4),
                e3 = oscillator_error<Leapfrog<2, ShakerMotion<2>>>(5e-5);
-  std::printf("Verlet errors %.3e %.3e %.3e, orders %.2f %.2f\n", e1, e2, e3, order(e1, e2), order(e2, e3));
+  std::printf("leapfrog errors %.3e %.3e %.3e, orders %.2f %.2f\n", e1, e2, e3, order(e1, e2), order(e2, e3));
   EXPECT_NEAR(order(e1, e2), 2.0, 0.1);
   EXPECT_NEAR(order(e2, e3), 2.0, 0.1);
 }
@@ -186,9 +186,9 @@ TEST(LinearLaw, TangentialFrictionConvergesToRolling) {
   // its kinetic energy never grows: friction only dissipates.
   omp_set_num_threads(1);
   WallSim<Gear5<2, ShakerMotion<2>>> sim;
-  sim.box.lo = Eigen::Vector2d(-3e8, -3e8);
-  sim.box.hi = Eigen::Vector2d(3e8, 3e8);
-  sim.box.finalize();
+  sim.domain.lo = Eigen::Vector2d(-3e8, -3e8);
+  sim.domain.hi = Eigen::Vector2d(3e8, 3e8);
+  sim.domain.finalize();
   sim.skin = 0.1;
   sim.law.young = kY;
   sim.law.gamma_n = kGammaN;
@@ -268,12 +268,12 @@ TEST(ShakenFloor, DiskBelowLiftOffNeverLeavesTheFloor) {
   omp_set_num_threads(1);
   for (double f : {2.6, 3.2}) {
     const double gear = min_overlap_on_shaken_floor<Gear5<2, ShakerMotion<2>>>(2.0, f, 10, 5e-5);
-    const double verlet = min_overlap_on_shaken_floor<Leapfrog<2, ShakerMotion<2>>>(2.0, f, 10, 5e-5);
+    const double leapfrog = min_overlap_on_shaken_floor<Leapfrog<2, ShakerMotion<2>>>(2.0, f, 10, 5e-5);
     const double static_overlap = disk_mass(1.0) * 981 / kY;
-    std::printf("f = %.1f Hz: smallest overlap Gear %.3e, Verlet %.3e (at rest %.3e)\n", f, gear, verlet,
+    std::printf("f = %.1f Hz: smallest overlap Gear %.3e, leapfrog %.3e (at rest %.3e)\n", f, gear, leapfrog,
                 static_overlap);
     EXPECT_GT(gear, 0.0);
-    EXPECT_GT(verlet, 0.0);
+    EXPECT_GT(leapfrog, 0.0);
     // and the overlap stays near m g (1 - Gamma) / Y at the top of the stroke
     const double gamma = 2.0 * std::pow(2 * M_PI * f, 2) / 981;
     EXPECT_NEAR(gear, static_overlap * (1 - gamma), 0.1 * static_overlap);

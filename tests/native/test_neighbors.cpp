@@ -16,7 +16,7 @@ void check_against_oracle(FreeSim& sim, double skin, int threads) {
   sim.skin = skin;
   sim.init();
   auto range = [](double a, double b) { return Law3::range(a, b); };
-  const auto oracle = brute_force_pairs(sim.p, sim.box, skin, range);
+  const auto oracle = brute_force_pairs(sim.p, sim.domain, skin, range);
   const auto listed = sim.neighbors().pairs_by_id(sim.p);
   ASSERT_FALSE(oracle.empty());
   EXPECT_EQ(listed.size(), oracle.size());
@@ -26,10 +26,10 @@ void check_against_oracle(FreeSim& sim, double skin, int threads) {
 FreeSim random_cloud(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, std::array<bool, 3> periodic, int n,
                      unsigned seed, bool no_overlap = false) {
   FreeSim sim;
-  sim.box.lo = lo;
-  sim.box.hi = hi;
-  sim.box.periodic = periodic;
-  sim.box.finalize();
+  sim.domain.lo = lo;
+  sim.domain.hi = hi;
+  sim.domain.periodic = periodic;
+  sim.domain.finalize();
   std::mt19937_64 gen(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   for (int i = 0; i < n; ++i) {
@@ -38,7 +38,7 @@ FreeSim random_cloud(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, std::
     const double d = 0.8 + 0.5 * u(gen);
     bool clash = false;
     for (std::size_t j = 0; no_overlap && j < sim.p.size() && !clash; ++j)
-      clash = sim.box.min_image(x - sim.p.x[j]).norm() < Law3::range(d, sim.p.d[j]);
+      clash = sim.domain.min_image(x - sim.p.x[j]).norm() < Law3::range(d, sim.p.d[j]);
     if (clash) { --i; continue; }
     add_sphere(sim, x, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), d, i % 2);
   }
@@ -56,7 +56,7 @@ TEST(Neighbors, DrumGeometryPeriodicAxis) {
   for (int i = 0; i < 200; ++i)
     for (int j = i + 1; j < 200; ++j)
       if ((sim.p.x[i].y() > 0) != (sim.p.x[j].y() > 0) &&
-          sim.box.min_image(sim.p.x[i] - sim.p.x[j]).norm() < Law3::range(sim.p.d[i], sim.p.d[j]))
+          sim.domain.min_image(sim.p.x[i] - sim.p.x[j]).norm() < Law3::range(sim.p.d[i], sim.p.d[j]))
         ++across;
   ASSERT_GT(across, 0);  // the test really has pairs across the boundary
   check_against_oracle(sim, 0.4, 1);
@@ -149,7 +149,7 @@ TEST(Neighbors, RebuiltAfterMotion) {
   EXPECT_GT(sim.neighbors().builds(), 2);
   // Every pair within the interaction range must be listed.
   auto range = [](double a, double b) { return Law3::range(a, b); };
-  const auto in_range = brute_force_pairs(sim.p, sim.box, 0.0, range);
+  const auto in_range = brute_force_pairs(sim.p, sim.domain, 0.0, range);
   const auto listed = sim.neighbors().pairs_by_id(sim.p);
   for (const auto& pr : in_range) EXPECT_TRUE(std::binary_search(listed.begin(), listed.end(), pr));
 }
@@ -161,10 +161,10 @@ TEST(Neighbors, RebuiltAfterMotion) {
 TEST(Neighbors, TwoThreadBlocksBalanceWork) {
   omp_set_num_threads(2);
   FreeSim sim;
-  sim.box.lo = Eigen::Vector3d(-5, -20, -5);
-  sim.box.hi = Eigen::Vector3d(5, 80, 5);
-  sim.box.periodic = {false, false, false};
-  sim.box.finalize();
+  sim.domain.lo = Eigen::Vector3d(-5, -20, -5);
+  sim.domain.hi = Eigen::Vector3d(5, 80, 5);
+  sim.domain.periodic = {false, false, false};
+  sim.domain.finalize();
   std::mt19937_64 gen(11);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   // y < 0: a simple cubic lattice of spacing 0.95 (every neighbour in
@@ -349,8 +349,8 @@ namespace {
 bool fast_ok(const FreeSim& sim, std::vector<std::uint32_t> fast) {
   double disp_max = 0.0;
   for (std::size_t i = 0; i < sim.p.size(); ++i)
-    disp_max = std::max(disp_max, sim.box.min_image(sim.p.x[i] - sim.neighbors().reference_positions()[i]).norm());
-  return sim.neighbors().fast_pairs_listed(sim.p, sim.box, disp_max, [&](auto&& f) {
+    disp_max = std::max(disp_max, sim.domain.min_image(sim.p.x[i] - sim.neighbors().reference_positions()[i]).norm());
+  return sim.neighbors().fast_pairs_listed(sim.p, sim.domain, disp_max, [&](auto&& f) {
     for (const std::uint32_t i : fast)
       if (!f(i)) return false;
     return true;
@@ -367,14 +367,14 @@ bool fast_ok(const FreeSim& sim, std::vector<std::uint32_t> fast) {
 TEST(Neighbors, FastParticlesKeepTheListOnlyWithNoPairMissing) {
   for (const double y0 : {0.0, 7.6}) {  // in the middle; straddling y = +-8
     FreeSim sim;
-    sim.box.lo = {-8, -8, -8};
-    sim.box.hi = {8, 8, 8};
-    sim.box.periodic = {false, true, false};
-    sim.box.finalize();
+    sim.domain.lo = {-8, -8, -8};
+    sim.domain.hi = {8, 8, 8};
+    sim.domain.periodic = {false, true, false};
+    sim.domain.finalize();
     const double skin = 0.4, r0 = Law3::range(1.0, 1.0), gap = r0 + skin + 0.05;
     for (int k = 0; k < 2; ++k) {
       Eigen::Vector3d x(0, y0 + (k ? gap : 0.0), 0);
-      sim.box.wrap(x);
+      sim.domain.wrap(x);
       add_sphere(sim, x, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 1.0, 0);
     }
     add_sphere(sim, Eigen::Vector3d(5, 0, 5), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 1.0, 0);
@@ -393,11 +393,11 @@ TEST(Neighbors, FastParticlesKeepTheListOnlyWithNoPairMissing) {
       sim.p.x = x0;
       sim.p.x[a].y() += da;
       sim.p.x[b].y() += db;
-      sim.box.wrap(sim.p.x[a]);
-      sim.box.wrap(sim.p.x[b]);
+      sim.domain.wrap(sim.p.x[a]);
+      sim.domain.wrap(sim.p.x[b]);
     };
     move(0.3, -0.3);  // towards each other: 0.6 > skin closer, in range
-    ASSERT_LT(sim.box.min_image(sim.p.x[a] - sim.p.x[b]).norm(), r0);
+    ASSERT_LT(sim.domain.min_image(sim.p.x[a] - sim.p.x[b]).norm(), r0);
     EXPECT_FALSE(fast_ok(sim, {a, b})) << "y0 " << y0;
     EXPECT_FALSE(fast_ok(sim, {b})) << "y0 " << y0;  // either fast particle finds the pair
     move(-0.3, 0.3);  // apart
@@ -418,13 +418,13 @@ TEST(Neighbors, ListKeptPastTheSkinTestMissesNoPair) {
   for (const int threads : {1, 2}) {
     // A resting cloud below z = 0, the pairs above it.
     auto sim = random_cloud({-8, -12, -8}, {8, 12, 0}, {true, true, false}, 500, 11, true);
-    sim.box.hi.z() = 8;
-    sim.box.finalize();
+    sim.domain.hi.z() = 8;
+    sim.domain.finalize();
     const double skin = 0.3, gap = Law3::range(1.0, 1.0) + skin + 0.02;
     for (const double x0 : {-4.0, 0.0, 8.0 - 0.5 * gap}) {  // the last straddles x = +-8
       for (int k = 0; k < 2; ++k) {
         Eigen::Vector3d x(x0 + (k ? gap : 0.0), 4.0 * x0, 4.0);
-        sim.box.wrap(x);
+        sim.domain.wrap(x);
         add_sphere(sim, x, Eigen::Vector3d(k ? -1.0 : 1.0, 0, 0), Eigen::Vector3d::Zero(), 1.0, 0);
       }
     }
@@ -441,11 +441,11 @@ TEST(Neighbors, ListKeptPastTheSkinTestMissesNoPair) {
       if (sim.neighbors().builds() == builds) {
         std::vector<double> disp;
         for (std::size_t i = 0; i < sim.p.size(); ++i)
-          disp.push_back(sim.box.min_image(sim.p.x[i] - sim.neighbors().reference_positions()[i]).norm());
+          disp.push_back(sim.domain.min_image(sim.p.x[i] - sim.neighbors().reference_positions()[i]).norm());
         std::partial_sort(disp.begin(), disp.begin() + 2, disp.end(), std::greater<>());
         kept_past += disp[0] + disp[1] > sim.skin;
       }
-      const auto in_range = brute_force_pairs(sim.p, sim.box, 0.0, range);
+      const auto in_range = brute_force_pairs(sim.p, sim.domain, 0.0, range);
       const auto listed = sim.neighbors().pairs_by_id(sim.p);
       for (const auto& pr : in_range)
         ASSERT_TRUE(std::binary_search(listed.begin(), listed.end(), pr))

@@ -85,7 +85,7 @@ TEST(Rotation, DrumGrainsSpinUnlessRotationIsOff) {
 }
 
 TEST(Rotation, BoxDisksSpinUnlessRotationIsOff) {
-  for (const char* integrator : {"gear", "verlet"}) {
+  for (const char* integrator : {"gear", "leapfrog"}) {
     const Spin on = small_box(integrator, true), off = small_box(integrator, false);
     EXPECT_GT(on.max_w, 0.01) << integrator;
     EXPECT_EQ(off.max_w, 0.0) << integrator;

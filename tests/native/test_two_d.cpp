@@ -22,9 +22,9 @@ double restitution(double dt) {
   Sim sim;
   using V = Vec<Sim::kDim>;
   using A = Ang<Sim::kDim>;
-  sim.box.lo = V::Constant(-10);
-  sim.box.hi = V::Constant(10);
-  sim.box.finalize();
+  sim.domain.lo = V::Constant(-10);
+  sim.domain.hi = V::Constant(10);
+  sim.domain.finalize();
   sim.law = RapaportLaw<Sim::kDim>::from_paper(5.0, 10, 2, 10, 2, 0.5);
   sim.integrator.dt = dt;
   V x = V::Zero(), v = V::Zero();
@@ -41,10 +41,10 @@ double restitution(double dt) {
 // A 40 x 30 strip, periodic along x.
 Sim2 periodic_strip() {
   Sim2 sim;
-  sim.box.lo = Eigen::Vector2d(0, 0);
-  sim.box.hi = Eigen::Vector2d(40, 30);
-  sim.box.periodic = {true, false};
-  sim.box.finalize();
+  sim.domain.lo = Eigen::Vector2d(0, 0);
+  sim.domain.hi = Eigen::Vector2d(40, 30);
+  sim.domain.periodic = {true, false};
+  sim.domain.finalize();
   return sim;
 }
 
@@ -74,7 +74,7 @@ TEST(TwoD, NeighborListMatchesOracle) {
   sim.skin = 0.3;
   sim.init();
   auto range = [](double a, double b) { return RapaportLaw<2>::range(a, b); };
-  const auto oracle = brute_force_pairs(sim.p, sim.box, 0.3, range);
+  const auto oracle = brute_force_pairs(sim.p, sim.domain, 0.3, range);
   ASSERT_GT(oracle.size(), 100u);
   EXPECT_EQ(sim.neighbors().pairs_by_id(sim.p), oracle);
 }
@@ -93,7 +93,7 @@ TEST(TwoD, BigDiskListedAgainstItsGrains) {
       sim.init();
       EXPECT_EQ(sim.neighbors().n_large(), 1u);
       auto range = [](double a, double b) { return RapaportLaw<2>::range(a, b); };
-      const auto oracle = brute_force_pairs(sim.p, sim.box, 0.5, range);
+      const auto oracle = brute_force_pairs(sim.p, sim.domain, 0.5, range);
       std::size_t big = 0;
       for (const auto& pr : oracle) big += pr.first == 0;
       ASSERT_GT(big, 10u);  // the big disk has many partners to find

@@ -110,10 +110,10 @@ TEST(ViscElMapping, BoxReproducesThePapersCoefficients) {
   const char* src = std::getenv("GRANULAR_SOURCE_DIR");
   const auto path = std::filesystem::path(src ? src : ".") / "scenes/box/f3.0_big.toml";
   for (const char* wall_mass : {"box.wall_mass=\"particle\"", "box.wall_mass=\"infinite\""}) {
-    SceneFile f(path.string(), {"contact.law=\"viscel\"", "integrator.kind=\"verlet\"", wall_mass});
+    SceneFile f(path.string(), {"contact.law=\"viscel\"", "integrator.kind=\"leapfrog\"", wall_mass});
     const BoxScene s = read_box_scene(f);
     BoxSim sim = make_box(s);
-    const auto& law = std::get<BoxViscElOf<BoxVerlet>>(sim).law;
+    const auto& law = std::get<BoxViscElOf<BoxLeapfrog>>(sim).law;
     PoeschelHerrmannLaw<2> ph;
     ph.young = s.young;
     ph.gamma_n = s.gamma_n;

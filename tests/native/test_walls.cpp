@@ -19,10 +19,10 @@ constexpr double kD = 16.0, kL = 16.0, kG = 5.0;
 // Periodic drum section with the curved wall only.
 CylSim drum(double omega, const std::string& lever = "paper") {
   CylSim sim;
-  sim.box.lo = Eigen::Vector3d(-kD / 2 - 2, -kL / 2, -kD / 2 - 2);
-  sim.box.hi = Eigen::Vector3d(kD / 2 + 2, kL / 2, kD / 2 + 2);
-  sim.box.periodic = {false, true, false};
-  sim.box.finalize();
+  sim.domain.lo = Eigen::Vector3d(-kD / 2 - 2, -kL / 2, -kD / 2 - 2);
+  sim.domain.hi = Eigen::Vector3d(kD / 2 + 2, kL / 2, kD / 2 + 2);
+  sim.domain.periodic = {false, true, false};
+  sim.domain.finalize();
   sim.law = Law3::from_paper(5.0, 10, 2, 10, 2, 0.5);  // small-wall: gamma 2, mu 0.1; big-wall: 10, 0.5
   sim.integrator.gravity = Eigen::Vector3d(0, 0, -kG);
   auto& w = std::get<CylinderWall>(sim.walls);
@@ -159,10 +159,10 @@ TEST(WallForce, NothingOutOfRange) {
 TEST(WallForce, EndCapSingleContact) {
   omp_set_num_threads(1);
   CapSim sim;
-  sim.box.lo = Eigen::Vector3d(-kD / 2 - 2, -kL / 2 - 2, -kD / 2 - 2);
-  sim.box.hi = Eigen::Vector3d(kD / 2 + 2, kL / 2 + 2, kD / 2 + 2);
-  sim.box.periodic = {false, false, false};
-  sim.box.finalize();
+  sim.domain.lo = Eigen::Vector3d(-kD / 2 - 2, -kL / 2 - 2, -kD / 2 - 2);
+  sim.domain.hi = Eigen::Vector3d(kD / 2 + 2, kL / 2 + 2, kD / 2 + 2);
+  sim.domain.periodic = {false, false, false};
+  sim.domain.finalize();
   sim.law = Law3::from_paper(5.0, 10, 2, 10, 2, 0.5);
   const double omega = 0.5;
   std::get<CylinderWall>(sim.walls).diameter = kD;
@@ -198,8 +198,8 @@ constexpr bool none_periodic(std::index_sequence<I...>) {
 // nothing, a periodic box's do, and an open box refuses a periodic axis
 // rather than silently leaving it unwrapped.
 TEST(PeriodicAxes, OnlyTheBoundaryMakesTheBoxWrap) {
-  Box<3, true> periodic;
-  Box<3, false> open;
+  Domain<3, true> periodic;
+  Domain<3, false> open;
   for (auto* lo : {&periodic.lo, &open.lo}) *lo = Eigen::Vector3d(-5, -10, -5);
   for (auto* hi : {&periodic.hi, &open.hi}) *hi = Eigen::Vector3d(5, 10, 5);
   periodic.periodic = {false, true, false};

@@ -29,9 +29,9 @@ json trajectory(Sim& sim, const json& in) {
   constexpr int D = Sim::kDim;
   using V = Vec<D>;
   const double half = in.value("box_half_width", 20.0);
-  sim.box.lo = V::Constant(-half);
-  sim.box.hi = V::Constant(half);
-  sim.box.finalize();
+  sim.domain.lo = V::Constant(-half);
+  sim.domain.hi = V::Constant(half);
+  sim.domain.finalize();
   sim.skin = 0.3;
   sim.integrator.dt = in["dt"];
   for (int k = 0; k < D; ++k) sim.integrator.gravity[k] = in["gravity"][k];

@@ -1,9 +1,9 @@
 // Periodic axes as a boundary: Rapaport (2002) Sec. III runs the drum with
 // "periodic or capped ends". With this boundary among a simulation's walls,
-// its box may wrap along the axes the scene marks periodic (Box::periodic):
-// positions wrap into the box and every separation takes the minimum image.
-// Without it the box is open, and both operations compile to nothing
-// (core/box.hpp). It exerts no force.
+// its domain may wrap along the axes the scene marks periodic (Domain::periodic):
+// positions wrap into the domain and every separation takes the minimum image.
+// Without it the domain is open, and both operations compile to nothing
+// (core/domain.hpp). It exerts no force.
 #pragma once
 #include <cstddef>
 

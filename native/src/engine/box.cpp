@@ -24,10 +24,10 @@ void configure(Sim& sim, const BoxScene& s) {
   double top = 0.0;  // the side walls' top centre (particle or smooth)
   sim.p = box_particles(s, anchors, &top);
   const double xw = 0.5 * s.width + s.wall_radius;
-  sim.box.lo = Eigen::Vector2d(-xw - s.wall_radius - 1.0, -2.0 * s.wall_radius - s.amplitude - 1.0);
-  sim.box.hi = Eigen::Vector2d(xw + s.wall_radius + 1.0, top + 50.0);
-  sim.box.periodic = {false, false};
-  sim.box.finalize();
+  sim.domain.lo = Eigen::Vector2d(-xw - s.wall_radius - 1.0, -2.0 * s.wall_radius - s.amplitude - 1.0);
+  sim.domain.hi = Eigen::Vector2d(xw + s.wall_radius + 1.0, top + 50.0);
+  sim.domain.periodic = {false, false};
+  sim.domain.finalize();
   if constexpr (std::is_same_v<decltype(sim.law), ViscElLaw<2>>) {
     // One material per species, coefficients per unit mass: harmonic mixing
     // gives a pair k_n = Y, c_n = gamma_N m_eff, c_s = gamma_S m_eff for any two
@@ -261,7 +261,7 @@ void emplace_walls(BoxSim& sim, const BoxScene& s) {
 
 template <class Law>
 void emplace_integrator(BoxSim& sim, const BoxScene& s) {
-  if (s.gear)
+  if (s.integrator == "gear")
     emplace_walls<Law, Gear5>(sim, s);
   else
     emplace_walls<Law, Leapfrog>(sim, s);

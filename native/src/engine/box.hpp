@@ -21,14 +21,14 @@ namespace granular {
 template <bool Literal, class Integrator>
 using BoxSimOf = Simulation<2, PoeschelHerrmannLaw<2, Literal>, Integrator>;
 using BoxGear = Gear5<2, ShakerMotion<2>>;
-using BoxVerlet = Leapfrog<2, ShakerMotion<2>>;
+using BoxLeapfrog = Leapfrog<2, ShakerMotion<2>>;
 template <class Integrator>
 using BoxViscElOf = Simulation<2, ViscElLaw<2>, Integrator>;  // YADE's law, for engine comparisons
 // box.walls = "smooth": the same laws and integrators, without wall particles.
 template <class Law, template <int, class> class Integrator>
 using SmoothBoxOf = Simulation<2, Law, Integrator<2, NoMotion>, FlatBoxWalls>;
-using BoxSim = std::variant<BoxSimOf<false, BoxGear>, BoxSimOf<false, BoxVerlet>, BoxSimOf<true, BoxGear>,
-                            BoxSimOf<true, BoxVerlet>, BoxViscElOf<BoxGear>, BoxViscElOf<BoxVerlet>,
+using BoxSim = std::variant<BoxSimOf<false, BoxGear>, BoxSimOf<false, BoxLeapfrog>, BoxSimOf<true, BoxGear>,
+                            BoxSimOf<true, BoxLeapfrog>, BoxViscElOf<BoxGear>, BoxViscElOf<BoxLeapfrog>,
                             SmoothBoxOf<PoeschelHerrmannLaw<2, false>, Gear5>,
                             SmoothBoxOf<PoeschelHerrmannLaw<2, false>, Leapfrog>,
                             SmoothBoxOf<PoeschelHerrmannLaw<2, true>, Gear5>,

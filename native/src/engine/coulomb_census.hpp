@@ -86,7 +86,7 @@ CoulombCensus coulomb_census(const Sim& sim) {
     for (std::size_t i = lo; i < hi; ++i)
       for (std::uint32_t k = nl.begin(i), ke = nl.end(i); k < ke; ++k) {
         const std::uint32_t j = col[k];
-        const auto dr = sim.box.min_image(p.x[i] - p.x[j]);
+        const auto dr = sim.domain.min_image(p.x[i] - p.x[j]);
         const double r2 = dr.squaredNorm();
         const double rc = Law::range(p.d[i], p.d[j]);
         if (r2 >= rc * rc) continue;

@@ -26,14 +26,14 @@ void configure_common(Sim& sim, const DrumScene& s) {
   const WallGeometry wg = set_contact_law(sim, mapping_inputs(s), s.kappa);
   const double d_wall = wg.d_wall, inset = wg.inset;
   const double half_d = 0.5 * s.diameter, margin = 2.0;
-  sim.box.lo = Eigen::Vector3d(-half_d - margin, -0.5 * s.length, -half_d - margin);
-  sim.box.hi = Eigen::Vector3d(half_d + margin, 0.5 * s.length, half_d + margin);
-  sim.box.periodic = {false, !s.capped, false};
+  sim.domain.lo = Eigen::Vector3d(-half_d - margin, -0.5 * s.length, -half_d - margin);
+  sim.domain.hi = Eigen::Vector3d(half_d + margin, 0.5 * s.length, half_d + margin);
+  sim.domain.periodic = {false, !s.capped, false};
   if (s.capped) {
-    sim.box.lo.y() -= margin;
-    sim.box.hi.y() += margin;
+    sim.domain.lo.y() -= margin;
+    sim.domain.hi.y() += margin;
   }
-  sim.box.finalize();
+  sim.domain.finalize();
   sim.integrator.dt = s.dt;
   sim.integrator.gravity = Eigen::Vector3d(0.0, 0.0, -s.gravity);  // g along -z (Sec. III)
   sim.skin = s.skin;

@@ -86,7 +86,7 @@ void check_health(const Sim& sim, const HealthLimits& lim) {
       for (std::uint32_t k = nl.begin(i); k < nl.end(i); ++k) {
         const std::size_t j = col[k];
         const double rc = Law::range(p.d[i], p.d[j]);
-        const double r = sim.box.min_image(p.x[i] - p.x[j]).norm();
+        const double r = sim.domain.min_image(p.x[i] - p.x[j]).norm();
         const double ov = (rc - r) / rc;
         if (ov > worst) {
           worst = ov;

@@ -15,14 +15,14 @@ namespace granular {
 
 namespace {
 
-// The neighbour list's box (core/box.hpp, open on every axis): the particles'
+// The neighbour list's domain (core/domain.hpp, open on every axis): the particles'
 // bounding box grown by two of the largest diameters and the skin. A particle
 // that leaves it is counted in the nearest edge cell (neighbor/cell_list.hpp),
-// which keeps every pair in range in the same or adjacent cells, so the box
-// only sizes the cells. Where the particles are spread so thinly that the box
+// which keeps every pair in range in the same or adjacent cells, so the domain
+// only sizes the cells. Where the particles are spread so thinly that the domain
 // would hold more than kMaxCells cells, it shrinks about its centre.
 template <class Sim>
-void set_box(Sim& sim, const ParticlesScene& s) {
+void set_domain(Sim& sim, const ParticlesScene& s) {
   constexpr double kMaxCells = 4e6;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
   double d_max = 0.0;
@@ -43,10 +43,10 @@ void set_box(Sim& sim, const ParticlesScene& s) {
     lo = mid - half;
     hi = mid + half;
   }
-  sim.box.lo = lo;
-  sim.box.hi = hi;
-  sim.box.periodic = {false, false, false};
-  sim.box.finalize();
+  sim.domain.lo = lo;
+  sim.domain.hi = hi;
+  sim.domain.periodic = {false, false, false};
+  sim.domain.finalize();
 }
 
 template <class Sim>
@@ -58,7 +58,7 @@ void configure(Sim& sim, const ParticlesScene& s) {
   walls.d_wall = wg.d_wall;
   const bool paper = s.wall_lever == "paper";
   walls.lever = WallLever{paper ? 1.0 : 0.0, paper ? 0.0 : 1.0};
-  set_box(sim, s);
+  set_domain(sim, s);
   sim.integrator.dt = s.dt;
   sim.integrator.gravity = Eigen::Vector3d(0.0, 0.0, -s.gravity);  // g along -z
   sim.skin = s.skin;

@@ -19,7 +19,7 @@
 
 #include "boundary/periodic_axes.hpp"
 #include "contact/pair_batch.hpp"
-#include "core/box.hpp"
+#include "core/domain.hpp"
 #include "core/doorbell.hpp"
 #include "core/particles.hpp"
 #include "core/threads.hpp"
@@ -45,10 +45,10 @@ class Simulation {
   // Whether W is among the walls.
   template <class W>
   static constexpr bool kHasWall = (false || ... || std::is_same_v<W, Walls>);
-  // A periodic box only with the PeriodicAxes boundary (core/box.hpp).
+  // A periodic domain only with the PeriodicAxes boundary (core/domain.hpp).
   static constexpr bool kPeriodic = kHasWall<PeriodicAxes>;
   ParticleStore<Dim> p;
-  Box<Dim, kPeriodic> box;
+  Domain<Dim, kPeriodic> domain;
   Law law;
   Integrator integrator;
   std::tuple<Walls...> walls;
@@ -64,7 +64,7 @@ class Simulation {
   double max_speed = std::numeric_limits<double>::infinity();
   std::string speed_sources;
 
-  // Call once the store, box, law and walls are set: builds the list and the
+  // Call once the store, domain, law and walls are set: builds the list and the
   // forces at t = 0 that the first half kick needs.
   void init() {
     set_d_min();
@@ -135,7 +135,7 @@ class Simulation {
         long k = 0;
         Stamps ts;
         dn.stats = stage_with_walls(lo, hi, tm + dt, fast(), ts, [&](std::size_t a, std::size_t e, const auto& seed) {
-          return integrator.first_half(p, box, xref, a, e, tm + dt, seed);
+          return integrator.first_half(p, domain, xref, a, e, tm + dt, seed);
         });
         for (; k < n; ++k) {
           const long seq = seq0 + k + 1;
@@ -165,7 +165,7 @@ class Simulation {
           // This step's second stage and the next step's first in one pass
           // over the block (the same bits as the two stages apart).
           dn.stats = stage_with_walls(lo, hi, tm + dt, fast(), ts, [&](std::size_t a, std::size_t e, const auto& seed) {
-            return integrator.second_then_first(p, box, xref, a, e, tm + dt, seed);
+            return integrator.second_then_first(p, domain, xref, a, e, tm + dt, seed);
           });
 #pragma omp master
           {
@@ -234,7 +234,7 @@ class Simulation {
   // forces = false: f and tq are recomputed before anything reads them (the
   // rebuild inside a step, after the drift), so the reorder skips them.
   void rebuild(bool forces = true) {
-    nl_.build(p, box, skin, Law::kRangeFactor, exclude_species, forces, kParticleWeight);
+    nl_.build(p, domain, skin, Law::kRangeFactor, exclude_species, forces, kParticleWeight);
     // The tail tasks' buffers, one entry per particle of the chunks each
     // writes (zeroed by the thread that runs the task).
     const std::size_t ntasks = static_cast<std::size_t>(nl_.tails() * nl_.threads());
@@ -282,7 +282,7 @@ class Simulation {
         for (std::uint32_t k = nl_.begin(i); k < nl_.end(i); ++k) {
           const std::uint32_t j = nl_.col(t)[k];
           const double rc = Law::range(p.d[i], p.d[j]);
-          if (box.min_image(p.x[i] - p.x[j]).squaredNorm() < rc * rc) {
+          if (domain.min_image(p.x[i] - p.x[j]).squaredNorm() < rc * rc) {
             ci.push_back(static_cast<std::uint32_t>(i));
             cj.push_back(j);
           }
@@ -296,7 +296,7 @@ class Simulation {
       const auto t0 = PhaseTimers::Clock::now();
       for (std::size_t c = 0; c < ci.size(); ++c) {
         const std::uint32_t i = ci[c], j = cj[c];
-        const V dr = box.min_image(p.x[i] - p.x[j]);
+        const V dr = domain.min_image(p.x[i] - p.x[j]);
         const auto r = law.pair_force(dr, dr.squaredNorm(), p.d[i], p.d[j], p.v[i] - p.v[j], p.w[i], p.w[j],
                                       p.species[i], p.species[j], p.inv_m[i], p.inv_m[j]);
         F[i] += r.f;
@@ -404,7 +404,7 @@ class Simulation {
   // Every thread runs it on the same published numbers: the same verdict.
   bool fast_pairs_listed(const typename Integrator::DriftStats& all) const {
     if (all.n_fast > max_fast() || !(all.max_disp2 <= skin * skin)) return false;
-    return nl_.fast_pairs_listed(p, box, std::sqrt(all.max_disp2), [&](auto&& f) {
+    return nl_.fast_pairs_listed(p, domain, std::sqrt(all.max_disp2), [&](auto&& f) {
       for (const Done& d : done_)
         for (std::uint32_t k = 0; k < d.stats.n_fast; ++k)
           if (!f(d.stats.fast[k])) return false;
@@ -486,7 +486,7 @@ class Simulation {
 
   // The second stage on the thread's own block.
   void finish(std::size_t lo, std::size_t hi, Stamps& ts) {
-    integrator.second_half(p, box, lo, hi);
+    integrator.second_half(p, domain, lo, hi);
 #pragma omp master
     ts.end = PhaseTimers::Clock::now();
   }
@@ -749,7 +749,7 @@ class Simulation {
       A ti = A::Zero();
       for (std::uint32_t k = nl_.begin(i), ke = nl_.end(i); k < ke; ++k) {
         const std::uint32_t j = col[k];
-        const V dr = box.min_image(xi - p.x[j]);
+        const V dr = domain.min_image(xi - p.x[j]);
         const double r2 = dr.squaredNorm();
         const double rc = Law::range(di, p.d[j]);
         if (r2 >= rc * rc) continue;
@@ -812,7 +812,7 @@ class Simulation {
         int q = q0;
         for (std::uint32_t k = k0; k < k1; ++k) {
           const std::uint32_t j = col[k];
-          const V dr = box.min_image(xi - p.x[j]);
+          const V dr = domain.min_image(xi - p.x[j]);
           const double r2 = dr.squaredNorm();
           const double dj = p.d[j];
           const double rc = Law::range(di, dj);

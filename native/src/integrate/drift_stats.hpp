@@ -15,7 +15,7 @@
 #include <cstdint>
 #include <limits>
 
-#include "core/box.hpp"
+#include "core/domain.hpp"
 
 namespace granular {
 
@@ -59,8 +59,8 @@ struct DriftStats {
   // and at the last build. Written with !(a <= b) so that a NaN makes the
   // statistics NaN.
   template <int Dim, bool P>
-  void add(const Box<Dim, P>& box, std::size_t i, double s2, const Vec<Dim>& x, const Vec<Dim>& ref) {
-    const double d2 = box.min_image(x - ref).squaredNorm();
+  void add(const Domain<Dim, P>& domain, std::size_t i, double s2, const Vec<Dim>& x, const Vec<Dim>& ref) {
+    const double d2 = domain.min_image(x - ref).squaredNorm();
     if (!(s2 <= max_step2)) max_step2 = s2;
     if (!(d2 <= fast2)) {
       if (n_fast < cap_fast) fast[n_fast] = static_cast<std::uint32_t>(i);

@@ -18,7 +18,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "core/box.hpp"
+#include "core/domain.hpp"
 #include "core/particles.hpp"
 #include "integrate/drift_stats.hpp"
 #include "integrate/motion.hpp"
@@ -63,14 +63,14 @@ struct Gear5 {
   };
 
   template <bool P>
-  DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref, std::size_t lo,
+  DriftStats first_half(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next, const DriftStats& seed = DriftStats()) const {
-    return stages<false, true>(p, box, x_ref, lo, hi, t_next, seed);
+    return stages<false, true>(p, domain, x_ref, lo, hi, t_next, seed);
   }
 
   template <bool P>
-  void second_half(ParticleStore<Dim>& p, const Box<Dim, P>& box, std::size_t lo, std::size_t hi) const {
-    stages<true, false>(p, box, p.x, lo, hi, 0.0, DriftStats());
+  void second_half(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, std::size_t lo, std::size_t hi) const {
+    stages<true, false>(p, domain, p.x, lo, hi, 0.0, DriftStats());
   }
 
   // The corrector of one step and the predictor of the next in one pass:
@@ -78,10 +78,10 @@ struct Gear5 {
   // second_half() then first_half() (the same bits), with its fifteen columns
   // read and written once instead of twice.
   template <bool P>
-  DriftStats second_then_first(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref,
+  DriftStats second_then_first(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref,
                                std::size_t lo, std::size_t hi, double t_next,
                                const DriftStats& seed = DriftStats()) const {
-    return stages<true, true>(p, box, x_ref, lo, hi, t_next, seed);
+    return stages<true, true>(p, domain, x_ref, lo, hi, t_next, seed);
   }
 
  private:
@@ -101,11 +101,11 @@ struct Gear5 {
 
   // The predictor; returns the position's step.
   template <bool P>
-  GRANULAR_INLINE V predict(State& s, const Box<Dim, P>& box) const {
+  GRANULAR_INLINE V predict(State& s, const Domain<Dim, P>& domain) const {
     const V r1 = dt * s.v;
     const V step = r1 + s.r2 + s.r3 + s.r4 + s.r5;
     s.x += step;
-    box.wrap(s.x);
+    domain.wrap(s.x);
     s.v = (r1 + 2.0 * s.r2 + 3.0 * s.r3 + 4.0 * s.r4 + 5.0 * s.r5) / dt;
     s.r2 += 3.0 * s.r3 + 6.0 * s.r4 + 10.0 * s.r5;
     s.r3 += 4.0 * s.r4 + 10.0 * s.r5;
@@ -121,11 +121,11 @@ struct Gear5 {
 
   // The corrector, from the forces in the store.
   template <bool P>
-  GRANULAR_INLINE void correct(State& s, const ParticleStore<Dim>& p, std::size_t i, const Box<Dim, P>& box) const {
+  GRANULAR_INLINE void correct(State& s, const ParticleStore<Dim>& p, std::size_t i, const Domain<Dim, P>& domain) const {
     const double h2 = 0.5 * dt * dt;
     const V d = h2 * (p.f[i] * p.inv_m[i] + gravity) - s.r2;
     s.x += c0 * d;
-    box.wrap(s.x);
+    domain.wrap(s.x);
     s.v += (kC1 / dt) * d;
     s.r2 += d;
     s.r3 += kC3 * d;
@@ -144,7 +144,7 @@ struct Gear5 {
   // and the statistics belong to the predictor; the corrector alone
   // (second_half) passes placeholders it never reads.
   template <bool Correct, bool Predict, bool P>
-  DriftStats stages(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref, std::size_t lo,
+  DriftStats stages(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref, std::size_t lo,
                     std::size_t hi, double t_next, const DriftStats& seed) const {
     // A local, returned as a copy (drift_stats.hpp: kept in registers).
     DriftStats st = seed;
@@ -152,16 +152,16 @@ struct Gear5 {
     Columns c(p);
     for (std::size_t i = lo; i < hi; ++i) {
       if constexpr (Predict) {
-        if (place_if_wall(motion, pose, p, i, box, x_ref[i], st)) continue;
+        if (place_if_wall(motion, pose, p, i, domain, x_ref[i], st)) continue;
       } else if constexpr (kHasMotion<Motion>) {
         if (p.species[i] == kWallSpecies) continue;
       }
       State s;
       s.load(p, c, i);
-      if constexpr (Correct) correct(s, p, i, box);
+      if constexpr (Correct) correct(s, p, i, domain);
       if constexpr (Predict) {
-        const V step = predict(s, box);
-        st.add(box, i, step.squaredNorm(), s.x, x_ref[i]);
+        const V step = predict(s, domain);
+        st.add(domain, i, step.squaredNorm(), s.x, x_ref[i]);
       }
       s.store(p, c, i);
     }

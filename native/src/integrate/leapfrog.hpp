@@ -12,7 +12,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "core/box.hpp"
+#include "core/domain.hpp"
 #include "core/particles.hpp"
 #include "integrate/drift_stats.hpp"
 #include "integrate/motion.hpp"
@@ -35,14 +35,14 @@ struct Leapfrog {
   // Stage 1 on particles [lo, hi); t_next = time at the end of the step. The
   // statistics start from seed (where to name fast particles: drift_stats.hpp).
   template <bool P>
-  DriftStats first_half(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref, std::size_t lo,
+  DriftStats first_half(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next, const DriftStats& seed = DriftStats()) const {
-    return kicks_then_drift<1>(p, box, x_ref, lo, hi, t_next, seed);
+    return kicks_then_drift<1>(p, domain, x_ref, lo, hi, t_next, seed);
   }
 
   // Stage 2 on particles [lo, hi).
   template <bool P>
-  void second_half(ParticleStore<Dim>& p, const Box<Dim, P>&, std::size_t lo, std::size_t hi) const {
+  void second_half(ParticleStore<Dim>& p, const Domain<Dim, P>&, std::size_t lo, std::size_t hi) const {
     for (std::size_t i = lo; i < hi; ++i) {
       if constexpr (kHasMotion<Motion>)
         if (p.species[i] == kWallSpecies) continue;
@@ -59,10 +59,10 @@ struct Leapfrog {
   // order as from second_half() then first_half() (the same bits), with its
   // columns read and written once instead of twice.
   template <bool P>
-  DriftStats second_then_first(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref,
+  DriftStats second_then_first(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref,
                                std::size_t lo, std::size_t hi, double t_next,
                                const DriftStats& seed = DriftStats()) const {
-    return kicks_then_drift<2>(p, box, x_ref, lo, hi, t_next, seed);
+    return kicks_then_drift<2>(p, domain, x_ref, lo, hi, t_next, seed);
   }
 
  private:
@@ -77,13 +77,13 @@ struct Leapfrog {
 
   // Kicks half kicks, then the drift, on particles [lo, hi).
   template <int Kicks, bool P>
-  DriftStats kicks_then_drift(ParticleStore<Dim>& p, const Box<Dim, P>& box, const Column<V>& x_ref,
+  DriftStats kicks_then_drift(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref,
                               std::size_t lo, std::size_t hi, double t_next, const DriftStats& seed) const {
     // A local, returned as a copy (drift_stats.hpp: kept in registers).
     DriftStats st = seed;
     const auto pose = pose_at(motion, t_next);
     for (std::size_t i = lo; i < hi; ++i) {
-      if (place_if_wall(motion, pose, p, i, box, x_ref[i], st)) continue;
+      if (place_if_wall(motion, pose, p, i, domain, x_ref[i], st)) continue;
       // Work on copies and store each column once: reading back a position
       // just stored in pieces (the periodic wrap writes one component) stalls
       // the load on the pending stores.
@@ -94,9 +94,9 @@ struct Leapfrog {
       p.w[i] = w;
       const V step = dt * v;
       V x = p.x[i] + step;
-      box.wrap(x);
+      domain.wrap(x);
       p.x[i] = x;
-      st.add(box, i, step.squaredNorm(), x, x_ref[i]);
+      st.add(domain, i, step.squaredNorm(), x, x_ref[i]);
     }
     return DriftStats(st);
   }

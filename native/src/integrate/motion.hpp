@@ -100,14 +100,14 @@ inline constexpr bool kHasMotion = !std::is_same_v<Motion, NoMotion>;
 // For the integrators' first stage: if particle i is a wall particle, put it
 // where the motion's pose (pose_at(motion, t_next), once per step) says,
 // record its displacement and return true.
-template <class Motion, class Pose, int Dim, class Stats, class BoxT>
+template <class Motion, class Pose, int Dim, class Stats, class DomainT>
 inline bool place_if_wall(const Motion& motion, const Pose& pose, ParticleStore<Dim>& p, std::size_t i,
-                          const BoxT& box, const Vec<Dim>& x_ref, Stats& st) {
+                          const DomainT& domain, const Vec<Dim>& x_ref, Stats& st) {
   if constexpr (kHasMotion<Motion>) {
     if (p.species[i] == kWallSpecies) {
       const Vec<Dim> old = p.x[i];
       motion.place(p, i, pose);
-      st.add(box, i, (p.x[i] - old).squaredNorm(), p.x[i], x_ref);
+      st.add(domain, i, (p.x[i] - old).squaredNorm(), p.x[i], x_ref);
       return true;
     }
   }

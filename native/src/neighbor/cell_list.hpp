@@ -18,7 +18,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/box.hpp"
+#include "core/domain.hpp"
 #include "core/column.hpp"
 #include "core/threads.hpp"
 
@@ -34,19 +34,19 @@ class CellList {
   // cells and threads, per-thread scatter). Particles keep their index order
   // within a cell, so the result is the same for any thread count.
   template <bool P>
-  void build_in_region(const Box<Dim, P>& box, const Column<V>& x, const Column<double>& d, double d_large,
+  void build_in_region(const Domain<Dim, P>& domain, const Column<V>& x, const Column<double>& d, double d_large,
                        double min_cell, int t, int nt, std::size_t lo, std::size_t hi) {
     const std::size_t n = x.size();
 #pragma omp single
     {
-      const V len = box.length();
+      const V len = domain.length();
       // Axis order: the axis with most cells varies slowest, so contiguous
       // index ranges (and the threads that own them) are slabs along the
       // longest axis.
       for (int k = 0; k < Dim; ++k) {
         int m = std::max(1, static_cast<int>(len[k] / min_cell));
         // A periodic axis with 2 cells would visit its neighbour twice.
-        if (box.periodic[k] && m < 3) m = 1;
+        if (domain.periodic[k] && m < 3) m = 1;
         n_[k] = m;
         width_[k] = len[k] / m;
         order_[k] = k;
@@ -55,9 +55,9 @@ class CellList {
       stride_[order_[0]] = 1;
       for (int q = 1; q < Dim; ++q) stride_[order_[q]] = stride_[order_[q - 1]] * n_[order_[q - 1]];
       n_cells_ = stride_[order_[Dim - 1]] * n_[order_[Dim - 1]];
-      periodic_ = box.periodic;
+      periodic_ = domain.periodic;
       len_ = len;
-      lo_ = box.lo;
+      lo_ = domain.lo;
       cell_tmp_.resize(n);
       cell_of_.resize(n);
       sorted_.resize(n);
@@ -70,7 +70,7 @@ class CellList {
     // The large particles' cells (had they been small), summed: where the bucket goes.
     std::uint64_t large_cells = 0;
     for (std::size_t i = lo; i < hi; ++i) {
-      const int c = cell_index(box, x[i]);
+      const int c = cell_index(domain, x[i]);
       const bool large = d[i] > d_large;
       cell_tmp_[i] = large ? n_cells_ : c;
       large_cells += large ? static_cast<std::uint64_t>(c) : 0;
@@ -215,10 +215,10 @@ class CellList {
 
  private:
   template <bool P>
-  int cell_index(const Box<Dim, P>& box, const V& p) const {
+  int cell_index(const Domain<Dim, P>& domain, const V& p) const {
     int idx = 0;
     for (int k = 0; k < Dim; ++k) {
-      int q = static_cast<int>(std::floor((p[k] - box.lo[k]) / width_[k]));
+      int q = static_cast<int>(std::floor((p[k] - domain.lo[k]) / width_[k]));
       // Particles a little outside a non-periodic edge (pressed into a wall)
       // belong to the edge cell; a wrapped periodic coordinate is inside anyway.
       q = std::clamp(q, 0, n_[k] - 1);

@@ -87,7 +87,7 @@ class NeighborList {
   static constexpr double kLargeRatio = 1.5;
   static constexpr std::size_t kLargeShare = 64;
   template <bool P>
-  void build(ParticleStore<Dim>& p, const Box<Dim, P>& box, double skin, double range_factor,
+  void build(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, double skin, double range_factor,
              int exclude_species = -1, bool forces = true, std::uint32_t particle_weight = 1) {
     const auto range = [range_factor](double a, double b) { return range_factor * (a + b); };
     skin_ = skin;
@@ -148,7 +148,7 @@ class NeighborList {
     {
       const int t = omp_get_thread_num();
       const auto [lo, hi] = thread_block(n, nt_, t);
-      cells_.build_in_region(box, p.x, p.d, d_large, range(d_small, d_small) + skin, t, nt_, lo, hi);
+      cells_.build_in_region(domain, p.x, p.d, d_large, range(d_small, d_small) + skin, t, nt_, lo, hi);
       p.reorder_in_parallel(cells_.sorted(), lo, hi, forces);
 #pragma omp barrier
       auto& out = col_[t];
@@ -187,7 +187,7 @@ class NeighborList {
         room(e - b);
         for (std::uint32_t j = b; j < e; ++j) {
           const double r0 = range(di, d[j]), rc = r0 + skin;
-          const double r2 = box.min_image(xi - x[j]).squaredNorm();
+          const double r2 = domain.min_image(xi - x[j]).squaredNorm();
           const bool hit = (r2 < rc * rc) & !(excluded_i & (species[j] == exclude_species));
           out[n_out] = j;
           n_out += hit;
@@ -404,7 +404,7 @@ class NeighborList {
   // candidates come from the build's cells within reach: a particle within
   // range of x_i now was within range + disp_max of it at the build.
   template <class ForEachFast, bool P>
-  bool fast_pairs_listed(const ParticleStore<Dim>& p, const Box<Dim, P>& box, double disp_max,
+  bool fast_pairs_listed(const ParticleStore<Dim>& p, const Domain<Dim, P>& domain, double disp_max,
                          ForEachFast&& for_each_fast) const {
     constexpr double kMargin = 1e-9;
     const double range_factor = range_factor_;
@@ -419,9 +419,9 @@ class NeighborList {
         for (std::uint32_t j = b; j < e && ok; ++j) {
           if (j == i || (excluded_i && p.species[j] == exclude_species)) continue;
           const double r0 = range_factor * (di + p.d[j]);
-          if (box.min_image(xi - p.x[j]).squaredNorm() >= (1.0 + kMargin) * (r0 * r0)) continue;
+          if (domain.min_image(xi - p.x[j]).squaredNorm() >= (1.0 + kMargin) * (r0 * r0)) continue;
           const double rl = r0 + skin_;
-          ok = box.min_image(ri - x_ref_[j]).squaredNorm() < (1.0 - kMargin) * (rl * rl);
+          ok = domain.min_image(ri - x_ref_[j]).squaredNorm() < (1.0 - kMargin) * (rl * rl);
         }
       };
       cells_.for_cells_within(xi, range_factor * (di + d_max_) + disp_max, [&](int c) {
@@ -541,13 +541,13 @@ class NeighborList {
 // O(N^2) oracle: every pair closer than range(d_i, d_j) + skin, by id.
 template <int Dim, bool P, class RangeFn>
 std::vector<std::pair<std::int64_t, std::int64_t>> brute_force_pairs(const ParticleStore<Dim>& p,
-                                                                      const Box<Dim, P>& box, double skin,
+                                                                      const Domain<Dim, P>& domain, double skin,
                                                                       RangeFn range) {
   std::vector<std::pair<std::int64_t, std::int64_t>> out;
   for (std::size_t i = 0; i < p.size(); ++i)
     for (std::size_t j = i + 1; j < p.size(); ++j) {
       const double rc = range(p.d[i], p.d[j]) + skin;
-      if (box.min_image(p.x[i] - p.x[j]).squaredNorm() < rc * rc)
+      if (domain.min_image(p.x[i] - p.x[j]).squaredNorm() < rc * rc)
         out.emplace_back(std::min(p.id[i], p.id[j]), std::max(p.id[i], p.id[j]));
     }
   std::sort(out.begin(), out.end());

@@ -41,7 +41,7 @@ struct BoxScene {
   bool literal_damping = false;  // Eq. (2) as printed (|v_ij|) instead of the normal component
   double gravity = 981.0;
   // [integrator], [neighbor]
-  bool gear = false;  // defaults: box_scene.cpp
+  std::string integrator = "leapfrog";  // "leapfrog" | "gear"; defaults: box_scene.cpp
   double dt = 2e-4, skin = 0.5;  // skin: docs/shaken_box.md (speed sweep)
   // [run]: seconds
   double settle = 1.0, duration = 60.0;

@@ -50,7 +50,7 @@ struct StepRule {
 // survived every seed. 4 steps keep #A at its accuracy step 0.01.
 inline constexpr double kDrumAccuracyStep = 0.01;
 inline constexpr double kDrumStepsPerContact = 4.0;
-// Box: Gear fails at 3.4 steps per contact, velocity Verlet at 1.7; 2 x Gear's.
+// Box: Gear fails at 3.4 steps per contact, the leapfrog at 1.7; 2 x Gear's.
 inline constexpr double kBoxAccuracyStep = 2e-4;
 inline constexpr double kBoxStepsPerContact = 6.8;
 

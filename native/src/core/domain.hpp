@@ -1,13 +1,15 @@
-// The simulation box. Periodic axes are a property of the box and minimum image
-// is applied here and nowhere else.
+// The simulation domain: the axis-aligned region [lo, hi) the neighbour list
+// covers, and which of its axes are periodic. Periodic axes are a property of
+// the domain and minimum image is applied here and nowhere else. (The shaken
+// box of Poeschel and Herrmann is a scene, engine/box.hpp; this is not it.)
 //
 // Whether any axis may be periodic is chosen with the simulation's type
-// (Periodic; boundary/periodic_axes.hpp): an open box's min_image and wrap
+// (Periodic; boundary/periodic_axes.hpp): an open domain's min_image and wrap
 // are the identity and compile to nothing, so the shaken box and the capped
-// drum pay nothing for the periodic drum's wrap. Box 3 Hz, 1 thread, 6
-// alternated runs: 1.15 times the rate of a box that multiplied every
-// separation by 0 and rounded it (docs/speed_accuracy.md, "Periodic axes"). Which
-// axes wrap is set at run time (periodic), and only in a periodic box.
+// drum pay nothing for the periodic drum's wrap. Shaken box at 3 Hz, 1 thread,
+// 6 alternated runs: 1.15 times the rate of a build that multiplied every
+// separation by 0 and rounded it. Which axes wrap is set at run time
+// (periodic), and only in a periodic domain.
 #pragma once
 #include <array>
 #include <cmath>
@@ -19,7 +21,7 @@
 namespace granular {
 
 template <int Dim, bool Periodic = false>
-struct Box {
+struct Domain {
   using V = Vec<Dim>;
   V lo = V::Zero();
   V hi = V::Zero();
@@ -47,13 +49,13 @@ struct Box {
   }
   void wrap(V& x) const { x = wrapped(x); }
 
-  // Call after setting lo, hi, periodic. An open box with a periodic axis is
+  // Call after setting lo, hi, periodic. An open domain with a periodic axis is
   // a simulation type that does not match its scene: a programming error.
   void finalize() {
     len_ = hi - lo;
     for (int k = 0; k < Dim; ++k) {
       if (!Periodic && periodic[k])
-        throw std::logic_error("Box: axis " + std::to_string(k) +
+        throw std::logic_error("Domain: axis " + std::to_string(k) +
                                " is periodic but the simulation type has no periodic axes "
                                "(add the PeriodicAxes boundary: boundary/periodic_axes.hpp)");
       inv_len_[k] = periodic[k] ? 1.0 / len_[k] : 0.0;
