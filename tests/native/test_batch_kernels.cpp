@@ -291,12 +291,12 @@ TEST(BatchKernel, LinearWallMatchesWallForce) {
   expect_every_branch(check_wall_batch_against_scalar(law, 0.0, terms, 22));
 }
 
-// A law as it is, but without its wall batch kernel: the curved wall then
-// takes its contacts one by one.
+// A law as it is, but not vectorised: the curved wall then takes its
+// contacts one by one.
 template <class Law>
 struct WithoutWallBatch : Law {
+  static constexpr bool kVectorised = false;
   explicit WithoutWallBatch(const Law& law) : Law(law) {}
-  void wall_force_batch(WallBatch<3>&) const = delete;
 };
 
 // The curved wall's batched contacts (the geometry in lanes, then the law's
@@ -486,7 +486,7 @@ void check_range_form() {
 TEST(PairScan, LawsRangeIsFactorTimesDiameterSum) {
   check_range_form<RapaportLaw<3>>();
   check_range_form<LinearLaw<3>>();
-  check_range_form<PoeschelHerrmannLaw<2, false>>();
+  check_range_form<PoeschelHerrmannLaw<2, Damping::normal>>();
   check_range_form<ViscElLaw<3>>();
   EXPECT_GT(RapaportLaw<3>::kRangeFactor, 0.5);  // the LJ cut 2^(1/6) sigma, beyond contact
 }

@@ -349,7 +349,7 @@ TEST(FlatBoxWalls, SceneBuildsThemWhereTheParticleWallsAre) {
   ASSERT_FALSE(sp.smooth_walls);
   ASSERT_TRUE(ss.smooth_walls);
   BoxSim particle_v = make_box(sp), smooth_v = make_box(ss);
-  const auto& part = std::get<BoxSimOf<false, BoxGear>>(particle_v);
+  const auto& part = std::get<ParticleWallBoxOf<PoeschelHerrmannLaw<2>, Gear5>>(particle_v);
   const auto& smooth = std::get<SmoothBoxOf<PoeschelHerrmannLaw<2>, Gear5>>(smooth_v);
   const FlatBoxWalls& w = std::get<FlatBoxWalls>(smooth.walls);
   double floor_y = INFINITY, side_x = 0, top = -INFINITY, inv_m = -1;

@@ -113,7 +113,7 @@ TEST(ViscElMapping, BoxReproducesThePapersCoefficients) {
     SceneFile f(path.string(), {"contact.law=\"viscel\"", "integrator.kind=\"leapfrog\"", wall_mass});
     const BoxScene s = read_box_scene(f);
     BoxSim sim = make_box(s);
-    const auto& law = std::get<BoxViscElOf<BoxLeapfrog>>(sim).law;
+    const auto& law = std::get<ParticleWallBoxOf<ViscElLaw<2>, Leapfrog>>(sim).law;
     PoeschelHerrmannLaw<2> ph;
     ph.young = s.young;
     ph.gamma_n = s.gamma_n;

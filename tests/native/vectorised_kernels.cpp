@@ -12,17 +12,17 @@
 
 namespace granular {
 #if KERNEL == 1
-template void LinearLaw<2>::pair_force_batch(PairBatch<2>&) const;
+template void pair_force_batch<LinearLaw<2>, 2>(const LinearLaw<2>&, PairBatch<2>&);
 #elif KERNEL == 2
-template void LinearLaw<3>::pair_force_batch(PairBatch<3>&) const;
+template void pair_force_batch<LinearLaw<3>, 3>(const LinearLaw<3>&, PairBatch<3>&);
 #elif KERNEL == 3
-template void RapaportLaw<2>::pair_force_batch(PairBatch<2>&) const;
+template void pair_force_batch<RapaportLaw<2>, 2>(const RapaportLaw<2>&, PairBatch<2>&);
 #elif KERNEL == 4
-template void RapaportLaw<3>::pair_force_batch(PairBatch<3>&) const;
+template void pair_force_batch<RapaportLaw<3>, 3>(const RapaportLaw<3>&, PairBatch<3>&);
 #elif KERNEL == 5
-template void LinearLaw<3>::wall_force_batch(WallBatch<3>&) const;
+template void wall_force_batch<LinearLaw<3>, 3>(const LinearLaw<3>&, WallBatch<3>&);
 #elif KERNEL == 6
-template void RapaportLaw<3>::wall_force_batch(WallBatch<3>&) const;
+template void wall_force_batch<RapaportLaw<3>, 3>(const RapaportLaw<3>&, WallBatch<3>&);
 #elif KERNEL == 7
 template void CylinderWall::flush<RapaportLaw<3>>(ParticleStore<3>&, const RapaportLaw<3>&, WallBatch<3>&) const;
 #else

@@ -1,5 +1,7 @@
-"""The loops the native code marks `#pragma omp simd` (the contact laws'
-batch kernels for pairs and walls, the curved wall's contact geometry) are vectorised by the compiler, with AVX2 and with AVX-512.
+"""The loops the native code marks `#pragma omp simd` (the batch loops that run
+a contact law's lane functions for pairs and walls, the curved wall's contact
+geometry) are vectorised by the compiler, for every law the drum runs in SIMD
+lanes, with AVX2 and with AVX-512.
 
 GCC keeps such a loop scalar when it cannot make it branch-free (a division
 under a condition, say: "control flow in loop" without AVX-512's masked
@@ -24,17 +26,17 @@ SRC = ROOT / "native" / "src"
 TU = ROOT / "tests" / "native" / "vectorised_kernels.cpp"
 # The flags of the release build (native/CMakeLists.txt) that bear on
 # vectorisation; the instruction set is the test's.
-FLAGS = ["-std=c++17", "-O3", "-DNDEBUG", "-fno-math-errno", "-fopenmp"]
+FLAGS = ["-std=c++17", "-O3", "-DNDEBUG", "-fno-math-errno", "-ffp-contract=off", "-fopenmp"]
 TARGETS = {"AVX2": "-march=haswell", "AVX-512": "-march=skylake-avx512"}
 # KERNEL in vectorised_kernels.cpp -> (what it is, the header of its loop,
 # which of the header's omp simd loops it is, counted from 0).
 KERNELS = {
-    1: ("linear law, pairs, 2D", "contact/linear.hpp", 0),
-    2: ("linear law, pairs, 3D", "contact/linear.hpp", 0),
-    3: ("Rapaport law, pairs, 2D", "contact/rapaport.hpp", 0),
-    4: ("Rapaport law, pairs, 3D", "contact/rapaport.hpp", 0),
-    5: ("linear law, walls, 3D", "contact/linear.hpp", 1),
-    6: ("Rapaport law, walls, 3D", "contact/rapaport.hpp", 1),
+    1: ("linear law, pairs, 2D", "contact/pair_batch.hpp", 0),
+    2: ("linear law, pairs, 3D", "contact/pair_batch.hpp", 0),
+    3: ("Rapaport law, pairs, 2D", "contact/pair_batch.hpp", 0),
+    4: ("Rapaport law, pairs, 3D", "contact/pair_batch.hpp", 0),
+    5: ("linear law, walls, 3D", "contact/wall_batch.hpp", 0),
+    6: ("Rapaport law, walls, 3D", "contact/wall_batch.hpp", 0),
     7: ("curved wall, contact geometry", "boundary/cylinder_wall.hpp", 0),
 }
 

@@ -19,17 +19,18 @@
 #pragma once
 #include <array>
 #include <cmath>
+#include <type_traits>
 
-#include "contact/pair_batch.hpp"
-#include "contact/wall_batch.hpp"
-#include "core/space.hpp"
+#include "contact/lane.hpp"
+#include "contact/law_paths.hpp"
 
 namespace granular {
 
 template <int Dim>
-struct LinearLaw {
-  using V = Vec<Dim>;
-  using A = Ang<Dim>;
+struct LinearLaw : LawPaths<LinearLaw<Dim>, Dim> {
+  static constexpr const char* kName = "linear";  // contact.law
+  static constexpr bool kInDim = true;            // written for 2D and 3D
+  static constexpr bool kVectorised = true;       // pairs and walls in SIMD batches
   static constexpr int kSpecies = 2;
 
   struct Coeff {
@@ -50,126 +51,74 @@ struct LinearLaw {
   // range = kRangeFactor * (d_i + d_j): the neighbour build tests it in vector
   // lanes in this form (neighbor/range_scan.hpp).
   static constexpr double kRangeFactor = 0.5;
-  GRANULAR_INLINE static double range(double di, double dj) { return kRangeFactor * (di + dj); }
+  GRANULAR_HD static double range(double di, double dj) { return kRangeFactor * (di + dj); }
 
-  struct PairResult {
-    V f;
-    A ti;
-    A tj;
-  };
-
-  GRANULAR_INLINE static V friction(const V& vt, const Coeff& c, double damp_n, double fn) {
-    const double vrel = vt.norm();
-    if (vrel == 0.0) return V::Zero();
-    const double fs = std::min(c.xgamma_t * damp_n * vrel, c.mu * std::abs(fn));
-    return (-fs / vrel) * vt;
-  }
-
-  GRANULAR_INLINE PairResult pair_force(const V& dr, double r2, double di, double dj, const V& vij, const A& wi,
-                                        const A& wj, int ci, int cj, double inv_mi, double inv_mj) const {
-    const Coeff& c = pair[ci * kSpecies + cj];
-    const double r = std::sqrt(r2);
-    const V n = dr / r;
-    const double ri = 0.5 * di, rj = 0.5 * dj;
+  // A pair contact (contact/lane.hpp).
+  GRANULAR_HD void pair_lane(const PairContact<Dim>& c, PairForce<Dim>& o) const {
+    constexpr int kA = kAngDim<Dim>;
+    const Coeff& k = pair[c.ci * kSpecies + c.cj];
+    const double r = std::sqrt(c.r2);
+    double n[Dim], vt[Dim], fs[Dim], wr[kA], wxn[Dim], m[kA];
+    for (int a = 0; a < Dim; ++a) n[a] = c.dr[a] / r;
+    const double ri = 0.5 * c.di, rj = 0.5 * c.dj;
     const double delta = ri + rj - r;
-    const double meff = 1.0 / (inv_mi + inv_mj);
-    const double vn = vij.dot(n);
-    const double damp_n = c.gamma_n * meff;
-    const double fn = c.kn * delta - damp_n * vn;
-    const A wr = ri * wi + rj * wj;
-    const V vt = vij - vn * n - spin_cross(wr, n);
-    const V fs = friction(vt, c, damp_n, fn);
-    const A m = moment(n, fs);
-    return {fn * n + fs, -(ri - 0.5 * delta) * m, -(rj - 0.5 * delta) * m};
-  }
-
-  // pair_force over a batch of contacts (contact/pair_batch.hpp), the same
-  // equations in the same order, lane by lane.
-  void pair_force_batch(PairBatch<Dim>& b) const {
-    constexpr int kA = PairBatch<Dim>::kAng;
-    const int nb = b.n;
-#pragma omp simd
-    for (int k = 0; k < nb; ++k) {
-      const Coeff& c = pair[b.ci[k] * kSpecies + b.cj[k]];
-      const double r = std::sqrt(b.r2[k]);
-      double n[Dim], vt[Dim], fs[Dim], wr[kA], wxn[Dim], m[kA];
-      for (int a = 0; a < Dim; ++a) n[a] = b.dr[a][k] / r;
-      const double ri = 0.5 * b.di[k], rj = 0.5 * b.dj[k];
-      const double delta = ri + rj - r;
-      const double meff = 1.0 / (b.inv_mi[k] + b.inv_mj[k]);
-      double vn = 0.0;
-      for (int a = 0; a < Dim; ++a) vn += b.v[a][k] * n[a];
-      const double damp_n = c.gamma_n * meff;
-      const double fn = c.kn * delta - damp_n * vn;
-      for (int a = 0; a < kA; ++a) wr[a] = ri * b.wi[a][k] + rj * b.wj[a][k];
-      spin_cross_c(wr, n, wxn);
-      double vt2 = 0.0;
-      for (int a = 0; a < Dim; ++a) {
-        vt[a] = b.v[a][k] - vn * n[a] - wxn[a];
-        vt2 += vt[a] * vt[a];
-      }
-      // friction(): F_t = -min(x_t g_n m_eff |v_t|, mu |F_n|) v_t/|v_t|, zero at v_t = 0
-      capped_friction_c(vt, vt2, c.xgamma_t * damp_n, c.mu * std::abs(fn), fs);
-      moment_c(n, fs, m);
-      for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
-      for (int a = 0; a < kA; ++a) {
-        b.ti[a][k] = -(ri - 0.5 * delta) * m[a];
-        b.tj[a][k] = -(rj - 0.5 * delta) * m[a];
-      }
+    const double meff = 1.0 / (c.inv_mi + c.inv_mj);
+    double vn = 0.0;
+    for (int a = 0; a < Dim; ++a) vn += c.v[a] * n[a];
+    const double damp_n = k.gamma_n * meff;
+    const double fn = k.kn * delta - damp_n * vn;  // F_n
+    for (int a = 0; a < kA; ++a) wr[a] = ri * c.wi[a] + rj * c.wj[a];
+    spin_cross_c(wr, n, wxn);
+    double vt2 = 0.0;
+    for (int a = 0; a < Dim; ++a) {
+      vt[a] = c.v[a] - vn * n[a] - wxn[a];  // v_t
+      vt2 += vt[a] * vt[a];
+    }
+    capped_friction_c(vt, vt2, k.xgamma_t * damp_n, k.mu * std::abs(fn), fs);  // F_t
+    moment_c(n, fs, m);
+    for (int a = 0; a < Dim; ++a) o.f[a] = fn * n[a] + fs[a];
+    for (int a = 0; a < kA; ++a) {
+      o.ti[a] = -(ri - 0.5 * delta) * m[a];
+      o.tj[a] = -(rj - 0.5 * delta) * m[a];
     }
   }
 
-  struct WallResult {
-    V f;
-    A t;
-  };
-
-  // rp: from the wall contact point to the particle, |rp| < R_i; the wall has
-  // infinite mass. d_iw and lever (Rapaport's wall readings) do not enter.
-  GRANULAR_INLINE WallResult wall_force(const V& rp, double di, double /*d_iw*/, const V& viw, const A& wi,
-                                        const V& /*lever*/, int ci, double inv_mi) const {
-    const Coeff& c = wall[ci];
-    const double r = rp.norm();
-    const V n = rp / r;
-    const double ri = 0.5 * di;
-    const double vn = viw.dot(n);
-    const double damp_n = c.gamma_n / inv_mi;
-    const double fn = c.kn * (ri - r) - damp_n * vn;
-    const V vt = viw - vn * n - spin_cross(A(ri * wi), n);
-    const V fs = friction(vt, c, damp_n, fn);
-    return {fn * n + fs, -ri * moment(n, fs)};
+  // A wall contact: c.rp from the wall contact point to the particle,
+  // |rp| < R_i; the wall has infinite mass. d_iw and the lever (Rapaport's
+  // wall readings) do not enter.
+  GRANULAR_HD void wall_lane(const WallContact<Dim>& c, WallForce<Dim>& o) const {
+    constexpr int kA = kAngDim<Dim>;
+    const Coeff& k = wall[c.ci];
+    double r2 = 0.0;
+    for (int a = 0; a < Dim; ++a) r2 += c.rp[a] * c.rp[a];
+    const double r = std::sqrt(r2);
+    double n[Dim], vt[Dim], fs[Dim], wr[kA], wxn[Dim], m[kA];
+    for (int a = 0; a < Dim; ++a) n[a] = c.rp[a] / r;
+    const double ri = 0.5 * c.di;
+    double vn = 0.0;
+    for (int a = 0; a < Dim; ++a) vn += c.v[a] * n[a];
+    const double damp_n = k.gamma_n / c.inv_mi;
+    const double fn = k.kn * (ri - r) - damp_n * vn;
+    for (int a = 0; a < kA; ++a) wr[a] = ri * c.w[a];
+    spin_cross_c(wr, n, wxn);
+    double vt2 = 0.0;
+    for (int a = 0; a < Dim; ++a) {
+      vt[a] = c.v[a] - vn * n[a] - wxn[a];
+      vt2 += vt[a] * vt[a];
+    }
+    capped_friction_c(vt, vt2, k.xgamma_t * damp_n, k.mu * std::abs(fn), fs);
+    moment_c(n, fs, m);
+    for (int a = 0; a < Dim; ++a) o.f[a] = fn * n[a] + fs[a];
+    for (int a = 0; a < kA; ++a) o.t[a] = -ri * m[a];
   }
 
-  // wall_force over a batch of wall contacts (contact/wall_batch.hpp), the
-  // same equations in the same order, lane by lane.
-  void wall_force_batch(WallBatch<Dim>& b) const {
-    constexpr int kA = WallBatch<Dim>::kAng;
-    const int nb = b.n;
-#pragma omp simd
-    for (int k = 0; k < nb; ++k) {
-      const Coeff& c = wall[b.ci[k]];
-      double r2 = 0.0;
-      for (int a = 0; a < Dim; ++a) r2 += b.rp[a][k] * b.rp[a][k];
-      const double r = std::sqrt(r2);
-      double n[Dim], vt[Dim], fs[Dim], wr[kA], wxn[Dim], m[kA];
-      for (int a = 0; a < Dim; ++a) n[a] = b.rp[a][k] / r;
-      const double ri = 0.5 * b.di[k];
-      double vn = 0.0;
-      for (int a = 0; a < Dim; ++a) vn += b.v[a][k] * n[a];
-      const double damp_n = c.gamma_n / b.inv_mi[k];
-      const double fn = c.kn * (ri - r) - damp_n * vn;
-      for (int a = 0; a < kA; ++a) wr[a] = ri * b.w[a][k];
-      spin_cross_c(wr, n, wxn);
-      double vt2 = 0.0;
-      for (int a = 0; a < Dim; ++a) {
-        vt[a] = b.v[a][k] - vn * n[a] - wxn[a];
-        vt2 += vt[a] * vt[a];
-      }
-      capped_friction_c(vt, vt2, c.xgamma_t * damp_n, c.mu * std::abs(fn), fs);  // friction()
-      moment_c(n, fs, m);
-      for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
-      for (int a = 0; a < kA; ++a) b.t[a][k] = -ri * m[a];
-    }
+  // Set from a scene of Rapaport's particles (scene/law_mapping.hpp's
+  // MappingInputs) by the map of docs/model_mapping.md: contact diameters
+  // 2^(1/6) d, walls of zero thickness moved in by 2^(1/6) d_w / 2.
+  template <class In, int D = Dim, std::enable_if_t<D == 3, int> = 0>
+  static MappedLaw<LinearLaw> from_rapaport(const In& in) {
+    const auto map = map_rapaport_to_linear(in);  // scene/law_mapping.hpp
+    return {map.law, map.diameter_scale, map.wall_inset, 0.0};
   }
 };
 

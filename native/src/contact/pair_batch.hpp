@@ -1,28 +1,26 @@
-// A batch of pair contacts in columns (structure of arrays), for contact laws
-// that evaluate many contacts in one vectorised loop (`pair_force_batch`).
-// The pair loop (engine/simulation.hpp) gathers the contacts in range into a
-// batch, the law computes their forces and torques column by column, and the
-// loop adds them to the particles: the square roots and divisions of a
-// contact then run side by side in SIMD lanes instead of as one dependent
-// chain per contact. A law's batch kernel computes exactly what its
-// pair_force computes (tests/native/test_batch_kernels.cpp).
+// A batch of pair contacts in columns (structure of arrays), for the laws the
+// pair loop runs in SIMD lanes (Law::kVectorised). The pair loop
+// (engine/simulation.hpp) gathers the contacts in range into a batch,
+// pair_force_batch runs the law's pair_lane (contact/lane.hpp) over them column
+// by column, and the loop adds the results to the particles: the square roots
+// and divisions of a contact then run side by side in SIMD lanes instead of
+// as one dependent chain per contact. The lane function is the one the
+// one-at-a-time path calls, so both give the same bits
+// (tests/native/test_batch_kernels.cpp).
 #pragma once
-#include <algorithm>
-#include <cmath>
 #include <cstdint>
 #include <type_traits>
-#include <utility>
 
-#include "core/space.hpp"
+#include "contact/lane.hpp"
 
 namespace granular {
 
 template <int Dim>
 struct PairBatch {
   static constexpr int kSize = 64;
-  static constexpr int kAng = Space<Dim>::kAngDim;
+  static constexpr int kAng = kAngDim<Dim>;
   int n = 0;
-  // Inputs, as pair_force takes them: dr = r_i - r_j (minimum image),
+  // Inputs, as PairContact holds them: dr = r_i - r_j (minimum image),
   // r2 = |dr|^2, v = v_i - v_j.
   alignas(64) std::uint32_t i[kSize];
   alignas(64) std::uint32_t j[kSize];
@@ -43,46 +41,42 @@ struct PairBatch {
   alignas(64) double tj[kAng][kSize];
 };
 
-// Whether Law has a batch kernel for dimension Dim.
-template <class Law, int Dim, class = void>
-struct HasPairBatch : std::false_type {};
+// Whether the pair loop runs Law in SIMD batches (else one contact at a time;
+// the two sum a particle's contacts in different orders).
 template <class Law, int Dim>
-struct HasPairBatch<Law, Dim,
-                    std::void_t<decltype(std::declval<const Law&>().pair_force_batch(std::declval<PairBatch<Dim>&>()))>>
-    : std::true_type {};
+struct HasPairBatch : std::bool_constant<Law::kVectorised> {};
 
-// Component forms of space.hpp's spin_cross (omega x r) and moment (r x f),
-// for the batch kernels' scalar lanes.
-GRANULAR_INLINE void spin_cross_c(const double (&w)[3], const double (&r)[3], double (&out)[3]) {
-  out[0] = w[1] * r[2] - w[2] * r[1];
-  out[1] = w[2] * r[0] - w[0] * r[2];
-  out[2] = w[0] * r[1] - w[1] * r[0];
-}
-GRANULAR_INLINE void spin_cross_c(const double (&w)[1], const double (&r)[2], double (&out)[2]) {
-  out[0] = -w[0] * r[1];
-  out[1] = w[0] * r[0];
-}
-GRANULAR_INLINE void moment_c(const double (&r)[3], const double (&f)[3], double (&out)[3]) {
-  out[0] = r[1] * f[2] - r[2] * f[1];
-  out[1] = r[2] * f[0] - r[0] * f[2];
-  out[2] = r[0] * f[1] - r[1] * f[0];
-}
-GRANULAR_INLINE void moment_c(const double (&r)[2], const double (&f)[2], double (&out)[1]) {
-  out[0] = r[0] * f[1] - r[1] * f[0];
-}
-
-// The capped viscous friction of the laws' kernels (pairs and walls), in one
-// lane: f = -min(g |v|, mu |f_n|) v/|v|, zero at v = 0 (v2 = |v|^2,
-// mu_fn = mu |f_n|). -min(...) / |v|, and +0 at v = 0 (then the min is 0,
-// so 0 / 1), written without a select around the division: a division under
-// a condition keeps the loop scalar without AVX-512's masked lanes (GCC 12,
-// AVX2: "control flow in loop").
-template <int N>
-GRANULAR_INLINE void capped_friction_c(const double (&v)[N], double v2, double g, double mu_fn, double (&f)[N]) {
-  const double vabs = std::sqrt(v2);
-  const double mag = std::min(g * vabs, mu_fn);
-  const double scale = (0.0 - mag) / (vabs + static_cast<double>(v2 == 0.0));
-  for (int a = 0; a < N; ++a) f[a] = scale * v[a];
+// The law's pair_lane over every contact of batch b, in SIMD lanes.
+template <class Law, int Dim>
+void pair_force_batch(const Law& law, PairBatch<Dim>& b) {
+  constexpr int kA = kAngDim<Dim>;
+  const int nb = b.n;
+#pragma omp simd
+  for (int k = 0; k < nb; ++k) {
+    PairContact<Dim> c;
+    for (int a = 0; a < Dim; ++a) {
+      c.dr[a] = b.dr[a][k];
+      c.v[a] = b.v[a][k];
+    }
+    for (int a = 0; a < kA; ++a) {
+      c.wi[a] = b.wi[a][k];
+      c.wj[a] = b.wj[a][k];
+    }
+    c.r2 = b.r2[k];
+    c.di = b.di[k];
+    c.dj = b.dj[k];
+    c.ci = b.ci[k];
+    c.cj = b.cj[k];
+    c.inv_mi = b.inv_mi[k];
+    c.inv_mj = b.inv_mj[k];
+    PairForce<Dim> o;
+    law.pair_lane(c, o);
+    for (int a = 0; a < Dim; ++a) b.f[a][k] = o.f[a];
+    for (int a = 0; a < kA; ++a) {
+      b.ti[a][k] = o.ti[a];
+      b.tj[a][k] = o.tj[a];
+    }
+  }
 }
 
 }  // namespace granular

@@ -14,7 +14,7 @@
 //   never dissipative on approach. Kinematic reading (default): the normal
 //   component of the relative velocity, F^N = Y xi - gamma_N m_eff (v_ij . n),
 //   the Cundall-Strack dashpot (LAMMPS gran/hooke). The literal form is the
-//   template option Literal = true.
+//   template option Damping::literal (scene key contact.damping = "literal").
 // - Signs in Eqs. (3), (4), (6): the paper's printed signs fix one orientation
 //   convention; here v_rel is the velocity of i's contact point relative to j's
 //   along t, v_rel = (v_i - v_j) . t - R_i w_i - R_j w_j (w counter-clockwise),
@@ -26,15 +26,25 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/space.hpp"
+#include "contact/lane.hpp"
+#include "contact/law_paths.hpp"
 
 namespace granular {
 
-template <int Dim, bool Literal = false>
-struct PoeschelHerrmannLaw {
-  static_assert(Dim == 2, "the Poeschel-Herrmann law is written for disks");
-  using V = Vec<2>;
-  using A = Ang<2>;
+// The reading of Eq. (2)'s damping term (scene key contact.damping).
+enum class Damping {
+  normal,   // the normal component of the relative velocity (default)
+  literal,  // |v_ij|, as printed
+};
+
+template <int Dim, Damping D = Damping::normal>
+struct PoeschelHerrmannLaw : LawPaths<PoeschelHerrmannLaw<Dim, D>, Dim> {
+  static constexpr const char* kName = "poeschel_herrmann";  // contact.law
+  static constexpr Damping kDamping = D;                     // contact.damping
+  static constexpr bool kInDim = Dim == 2;                   // written for disks
+  // One contact at a time: the shaken box's results are those of that order
+  // of summation (contact/pair_batch.hpp).
+  static constexpr bool kVectorised = false;
 
   double young = 3e6;    // Y, g/s^2 (a spring constant per unit depth)
   double gamma_n = 100;  // gamma_N, 1/s
@@ -50,33 +60,38 @@ struct PoeschelHerrmannLaw {
   // range = kRangeFactor * (d_i + d_j): the neighbour build tests it in vector
   // lanes in this form (neighbor/range_scan.hpp).
   static constexpr double kRangeFactor = 0.5;
-  GRANULAR_INLINE static double range(double di, double dj) { return kRangeFactor * (di + dj); }
+  GRANULAR_HD static double range(double di, double dj) { return kRangeFactor * (di + dj); }
 
-  struct PairResult {
-    V f;   // force on i (j gets -f)
-    A ti;  // torque on i
-    A tj;  // torque on j
-  };
-
-  GRANULAR_INLINE PairResult pair_force(const V& dr, double r2, double di, double dj, const V& vij, const A& wi,
-                                        const A& wj, int /*ci*/, int /*cj*/, double inv_mi, double inv_mj) const {
-    const double r = std::sqrt(r2);
-    const V n = dr / r;
-    const V t(-n.y(), n.x());
-    const double m_eff = 1.0 / (inv_mi + inv_mj);  // Eq. (5); a wall particle of infinite mass has inv_m = 0
-    const double ri = 0.5 * di, rj = 0.5 * dj;
+  // A pair contact (contact/lane.hpp): Eqs. (1)-(6). Walls are particles.
+  GRANULAR_HD void pair_lane(const PairContact<2>& c, PairForce<2>& o) const {
+    const double r = std::sqrt(c.r2);
+    const double n[2] = {c.dr[0] / r, c.dr[1] / r};
+    const double t[2] = {-n[1], n[0]};                 // Eq. (1)
+    const double m_eff = 1.0 / (c.inv_mi + c.inv_mj);  // Eq. (5); a wall particle of infinite mass has inv_m = 0
+    const double ri = 0.5 * c.di, rj = 0.5 * c.dj;
     double fn = young * (ri + rj - r);  // Eq. (2), elastic part
-    if constexpr (Literal)
-      fn += gamma_n * m_eff * vij.norm();  // Eq. (2) as printed
+    if constexpr (D == Damping::literal)
+      fn += gamma_n * m_eff * std::sqrt(lane_dot(c.v, c.v));  // Eq. (2) as printed
     else
-      fn -= gamma_n * m_eff * vij.dot(n);  // Eq. (2), normal relative velocity
-    const double vrel = vij.dot(t) - ri * wi[0] - rj * wj[0];  // Eq. (4)
+      fn -= gamma_n * m_eff * lane_dot(c.v, n);  // Eq. (2), normal relative velocity
+    const double vrel = lane_dot(c.v, t) - ri * c.wi[0] - rj * c.wj[0];  // Eq. (4)
     const double cap = mu * std::abs(fn);
     const double fs = -std::copysign(std::min(gamma_s * m_eff * std::abs(vrel), cap), vrel);  // Eq. (3)
-    A ti, tj;
-    ti[0] = -ri * fs;  // Eq. (6)
-    tj[0] = -rj * fs;
-    return {fn * n + fs * t, ti, tj};
+    for (int a = 0; a < 2; ++a) o.f[a] = fn * n[a] + fs * t[a];
+    o.ti[0] = -ri * fs;  // Eq. (6)
+    o.tj[0] = -rj * fs;
+  }
+
+  // Set from the shaken box's scene (scene/box_scene.hpp): Y, gamma_N,
+  // gamma_S, mu as given.
+  template <class Scene>
+  static PoeschelHerrmannLaw from_box(const Scene& s) {
+    PoeschelHerrmannLaw law;
+    law.young = s.young;
+    law.gamma_n = s.gamma_n;
+    law.gamma_s = s.gamma_s;
+    law.mu = s.mu;
+    return law;
   }
 };
 

@@ -17,17 +17,18 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <type_traits>
 
-#include "contact/pair_batch.hpp"
-#include "contact/wall_batch.hpp"
-#include "core/space.hpp"
+#include "contact/lane.hpp"
+#include "contact/law_paths.hpp"
 
 namespace granular {
 
 template <int Dim>
-struct RapaportLaw {
-  using V = Vec<Dim>;
-  using A = Ang<Dim>;
+struct RapaportLaw : LawPaths<RapaportLaw<Dim>, Dim> {
+  static constexpr const char* kName = "rapaport";  // contact.law
+  static constexpr bool kInDim = true;              // written for 2D and 3D
+  static constexpr bool kVectorised = true;         // pairs and walls in SIMD batches
   static constexpr double kCutFactor = 1.12246204830937298143;  // 2^(1/6), Eq. (1)
   static constexpr int kSpecies = 2;
 
@@ -48,131 +49,73 @@ struct RapaportLaw {
   // range = kRangeFactor * (d_i + d_j): the neighbour build tests it in vector
   // lanes in this form (neighbor/range_scan.hpp).
   static constexpr double kRangeFactor = kCutFactor * 0.5;
-  GRANULAR_INLINE static double range(double di, double dj) { return kRangeFactor * (di + dj); }
+  GRANULAR_HD static double range(double di, double dj) { return kRangeFactor * (di + dj); }
 
   // Eq. (1) + Eq. (2): the signed magnitude of f_n along r^ (positive pushes apart).
-  GRANULAR_INLINE static double normal(double inv_r, double dij, double vn, double gamma_n) {
+  GRANULAR_HD static double normal(double inv_r, double dij, double vn, double gamma_n) {
     const double s2 = dij * dij * inv_r * inv_r;
     const double s6 = s2 * s2 * s2;
     return 48.0 * inv_r * s6 * (s6 - 0.5) - gamma_n * vn;
   }
 
-  // Eq. (4)/(5): f_s = -min(gamma_s |v_s|, mu |f_n|) v^_s.
-  GRANULAR_INLINE static V sliding(const V& vs, const Friction& fr, double fn) {
-    const double vs2 = vs.squaredNorm();
-    if (vs2 == 0.0) return V::Zero();
-    const double vabs = std::sqrt(vs2);
-    const double mag = std::min(fr.gamma_s * vabs, fr.mu * std::abs(fn));
-    return (-mag / vabs) * vs;
+  // A pair contact (contact/lane.hpp): Eqs. (1)-(4).
+  GRANULAR_HD void pair_lane(const PairContact<Dim>& c, PairForce<Dim>& o) const {
+    constexpr int kA = kAngDim<Dim>;
+    const Friction& fr = pair[c.ci * kSpecies + c.cj];
+    const double inv_r = 1.0 / std::sqrt(c.r2);
+    double dr[Dim], n[Dim], vs[Dim], fs[Dim], wbar[kA], wxr[Dim], m[kA];
+    for (int a = 0; a < Dim; ++a) {
+      dr[a] = c.dr[a];  // a local copy: an array of the contact passed on by reference keeps GCC's SIMD loop scalar
+      n[a] = dr[a] * inv_r;
+    }
+    double vn = 0.0;
+    for (int a = 0; a < Dim; ++a) vn += n[a] * c.v[a];
+    const double fn = normal(inv_r, 0.5 * (c.di + c.dj), vn, gamma_n);  // Eqs. (1), (2)
+    for (int a = 0; a < kA; ++a) wbar[a] = (c.di * c.wi[a] + c.dj * c.wj[a]) / (c.di + c.dj);
+    spin_cross_c(wbar, dr, wxr);
+    double vs2 = 0.0;
+    for (int a = 0; a < Dim; ++a) {
+      vs[a] = c.v[a] - vn * n[a] - wxr[a];  // Eq. (3)
+      vs2 += vs[a] * vs[a];
+    }
+    capped_friction_c(vs, vs2, fr.gamma_s, fr.mu * std::abs(fn), fs);  // Eq. (4)
+    moment_c(n, fs, m);
+    for (int a = 0; a < Dim; ++a) o.f[a] = fn * n[a] + fs[a];
+    for (int a = 0; a < kA; ++a) {
+      o.ti[a] = -0.5 * c.di * m[a];
+      o.tj[a] = -0.5 * c.dj * m[a];
+    }
   }
 
-  struct PairResult {
-    V f;   // force on i (j gets -f)
-    A ti;  // torque on i
-    A tj;  // torque on j
-  };
-
-  // dr = r_i - r_j after minimum image, r2 = |dr|^2 < range(d_i, d_j)^2.
-  // (Masses do not enter Rapaport's forces: the inverse masses are unused.)
-  GRANULAR_INLINE PairResult pair_force(const V& dr, double r2, double di, double dj, const V& vij, const A& wi,
-                                        const A& wj, int ci, int cj, double /*inv_mi*/, double /*inv_mj*/) const {
+  // A particle-wall contact (Sec. III, Eq. (5)): r'_iw = c.rp, |r'_iw| <
+  // range(d_i, d_w), d_iw = (d_i + d_w)/2, v_iw = v_i - Omega s; c.lever
+  // multiplies w_i in the sliding velocity (the paper writes w_i x r'_iw,
+  // i.e. lever = r'_iw).
+  GRANULAR_HD void wall_lane(const WallContact<Dim>& c, WallForce<Dim>& o) const {
+    constexpr int kA = kAngDim<Dim>;
+    const Friction& fr = wall[c.ci];
+    double r2 = 0.0;
+    for (int a = 0; a < Dim; ++a) r2 += c.rp[a] * c.rp[a];
     const double inv_r = 1.0 / std::sqrt(r2);
-    const V n = dr * inv_r;
-    const double vn = n.dot(vij);
-    const double fn = normal(inv_r, 0.5 * (di + dj), vn, gamma_n);  // Eqs. (1), (2)
-    const A wbar = (di * wi + dj * wj) / (di + dj);
-    const V vs = vij - vn * n - spin_cross(wbar, dr);  // Eq. (3)
-    const V fs = sliding(vs, pair[ci * kSpecies + cj], fn);  // Eq. (4)
-    const A m = moment(n, fs);
-    return {fn * n + fs, -0.5 * di * m, -0.5 * dj * m};
-  }
-
-  // pair_force over a batch of contacts (contact/pair_batch.hpp): Eqs. (1)-(4)
-  // in the same order, lane by lane.
-  void pair_force_batch(PairBatch<Dim>& b) const {
-    constexpr int kA = PairBatch<Dim>::kAng;
-    const int nb = b.n;
-#pragma omp simd
-    for (int k = 0; k < nb; ++k) {
-      const Friction& fr = pair[b.ci[k] * kSpecies + b.cj[k]];
-      const double inv_r = 1.0 / std::sqrt(b.r2[k]);
-      const double di = b.di[k], dj = b.dj[k];
-      double n[Dim], dr[Dim], vs[Dim], fs[Dim], wbar[kA], wxr[Dim], m[kA];
-      for (int a = 0; a < Dim; ++a) {
-        dr[a] = b.dr[a][k];
-        n[a] = dr[a] * inv_r;
-      }
-      double vn = 0.0;
-      for (int a = 0; a < Dim; ++a) vn += n[a] * b.v[a][k];
-      const double fn = normal(inv_r, 0.5 * (di + dj), vn, gamma_n);  // Eqs. (1), (2)
-      for (int a = 0; a < kA; ++a) wbar[a] = (di * b.wi[a][k] + dj * b.wj[a][k]) / (di + dj);
-      spin_cross_c(wbar, dr, wxr);
-      double vs2 = 0.0;
-      for (int a = 0; a < Dim; ++a) {
-        vs[a] = b.v[a][k] - vn * n[a] - wxr[a];  // Eq. (3)
-        vs2 += vs[a] * vs[a];
-      }
-      capped_friction_c(vs, vs2, fr.gamma_s, fr.mu * std::abs(fn), fs);  // sliding(), Eq. (4)
-      moment_c(n, fs, m);
-      for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
-      for (int a = 0; a < kA; ++a) {
-        b.ti[a][k] = -0.5 * di * m[a];
-        b.tj[a][k] = -0.5 * dj * m[a];
-      }
+    double n[Dim], lv[Dim], wi[kA], vs[Dim], fs[Dim], wxl[Dim], m[kA];
+    for (int a = 0; a < Dim; ++a) {
+      n[a] = c.rp[a] * inv_r;
+      lv[a] = c.lever[a];  // local copies, as in pair_lane
     }
-  }
-
-  struct WallResult {
-    V f;
-    A t;
-  };
-
-  // Particle-wall contact (Sec. III, Eq. (5)). rp = r'_iw points from the wall
-  // contact point to the particle, |rp| < range(d_i, d_w); d_iw = (d_i + d_w)/2;
-  // viw = v_i - Omega s; lever multiplies w_i in the sliding velocity
-  // (the paper writes w_i x r'_iw, i.e. lever = r'_iw).
-  GRANULAR_INLINE WallResult wall_force(const V& rp, double di, double d_iw, const V& viw, const A& wi, const V& lever,
-                        int ci, double /*inv_mi*/ = 0.0) const {
-    const double inv_r = 1.0 / rp.norm();
-    const V n = rp * inv_r;
-    const double vn = n.dot(viw);
-    const double fn = normal(inv_r, d_iw, vn, gamma_n);  // Eqs. (1), (2) with d_iw
-    const V vs = viw - vn * n - spin_cross(wi, lever);   // v^s_iw, Sec. III
-    const V fs = sliding(vs, wall[ci], fn);              // Eq. (5)
-    return {fn * n + fs, -0.5 * di * moment(n, fs)};
-  }
-
-  // wall_force over a batch of wall contacts (contact/wall_batch.hpp):
-  // Eqs. (1), (2), (5) in the same order, lane by lane.
-  void wall_force_batch(WallBatch<Dim>& b) const {
-    constexpr int kA = WallBatch<Dim>::kAng;
-    const int nb = b.n;
-#pragma omp simd
-    for (int k = 0; k < nb; ++k) {
-      const Friction& fr = wall[b.ci[k]];
-      double r2 = 0.0;
-      for (int a = 0; a < Dim; ++a) r2 += b.rp[a][k] * b.rp[a][k];
-      const double inv_r = 1.0 / std::sqrt(r2);
-      double n[Dim], lv[Dim], vs[Dim], fs[Dim], wi[kA], wxl[Dim], m[kA];
-      for (int a = 0; a < Dim; ++a) {
-        n[a] = b.rp[a][k] * inv_r;
-        lv[a] = b.lever[a][k];
-      }
-      for (int a = 0; a < kA; ++a) wi[a] = b.w[a][k];
-      double vn = 0.0;
-      for (int a = 0; a < Dim; ++a) vn += n[a] * b.v[a][k];
-      const double fn = normal(inv_r, b.d_iw[k], vn, gamma_n);  // Eqs. (1), (2) with d_iw
-      spin_cross_c(wi, lv, wxl);
-      double vs2 = 0.0;
-      for (int a = 0; a < Dim; ++a) {
-        vs[a] = b.v[a][k] - vn * n[a] - wxl[a];  // v^s_iw, Sec. III
-        vs2 += vs[a] * vs[a];
-      }
-      capped_friction_c(vs, vs2, fr.gamma_s, fr.mu * std::abs(fn), fs);  // sliding(), Eq. (5)
-      moment_c(n, fs, m);
-      for (int a = 0; a < Dim; ++a) b.f[a][k] = fn * n[a] + fs[a];
-      for (int a = 0; a < kA; ++a) b.t[a][k] = -0.5 * b.di[k] * m[a];
+    for (int a = 0; a < kA; ++a) wi[a] = c.w[a];
+    double vn = 0.0;
+    for (int a = 0; a < Dim; ++a) vn += n[a] * c.v[a];
+    const double fn = normal(inv_r, c.d_iw, vn, gamma_n);  // Eqs. (1), (2) with d_iw
+    spin_cross_c(wi, lv, wxl);
+    double vs2 = 0.0;
+    for (int a = 0; a < Dim; ++a) {
+      vs[a] = c.v[a] - vn * n[a] - wxl[a];  // v^s_iw, Sec. III
+      vs2 += vs[a] * vs[a];
     }
+    capped_friction_c(vs, vs2, fr.gamma_s, fr.mu * std::abs(fn), fs);  // Eq. (5)
+    moment_c(n, fs, m);
+    for (int a = 0; a < Dim; ++a) o.f[a] = fn * n[a] + fs[a];
+    for (int a = 0; a < kA; ++a) o.t[a] = -0.5 * c.di * m[a];
   }
 
   // Potential of Eq. (1), shifted to zero at the cutoff; for energy checks only.
@@ -198,6 +141,14 @@ struct RapaportLaw {
     law.wall = {Friction{g_sw, gpw > 0 ? mu_max * g_sw / gpw : mu_max},
                 Friction{g_bw, gpw > 0 ? mu_max * g_bw / gpw : mu_max}};
     return law;
+  }
+
+  // Set from a scene of Rapaport's particles (the drum, the particles scene:
+  // scene/law_mapping.hpp's MappingInputs): the paper's own parameters, the
+  // walls' diameter d_w as the scene gives it.
+  template <class In, int D = Dim, std::enable_if_t<D == 3, int> = 0>
+  static MappedLaw<RapaportLaw> from_rapaport(const In& in) {
+    return {in.rapaport(), 1.0, 0.0, in.wall_diameter};
   }
 };
 

@@ -1,25 +1,25 @@
-// A batch of particle-wall contacts in columns, for contact laws that
-// evaluate many wall contacts in one vectorised loop (`wall_force_batch`),
-// as contact/pair_batch.hpp does for pairs. A smooth wall (boundary/) fills
-// a batch with the geometry of its contacts, the law computes their forces
-// and torques column by column, and the wall adds them to the particles
-// (boundary/wall_contact.hpp). A law's batch kernel computes exactly what its
-// wall_force computes (tests/native/test_batch_kernels.cpp).
+// A batch of particle-wall contacts in columns, for the laws whose wall
+// contacts run in SIMD lanes (Law::kVectorised), as contact/pair_batch.hpp
+// does for pairs. A smooth wall (boundary/) fills a batch with the geometry
+// of its contacts, wall_force_batch runs the law's wall_lane
+// (contact/lane.hpp) over them column by column, and the wall adds the
+// results to the particles (boundary/wall_contact.hpp). The lane function is
+// the one the one-at-a-time path calls, so both give the same bits
+// (tests/native/test_batch_kernels.cpp).
 #pragma once
 #include <cstdint>
 #include <type_traits>
-#include <utility>
 
-#include "core/space.hpp"
+#include "contact/lane.hpp"
 
 namespace granular {
 
 template <int Dim>
 struct WallBatch {
   static constexpr int kSize = 64;
-  static constexpr int kAng = Space<Dim>::kAngDim;
+  static constexpr int kAng = kAngDim<Dim>;
   int n = 0;
-  // Inputs, as wall_force takes them: rp = r'_iw (wall contact point to
+  // Inputs, as WallContact holds them: rp = r'_iw (wall contact point to
   // particle), v = v_i - the wall's velocity there, lever = the vector that
   // multiplies w_i in the sliding velocity (boundary/wall_contact.hpp),
   // d_iw = (d_i + d_w)/2.
@@ -37,12 +37,34 @@ struct WallBatch {
   alignas(64) double t[kAng][kSize];
 };
 
-// Whether Law has a wall batch kernel for dimension Dim.
-template <class Law, int Dim, class = void>
-struct HasWallBatch : std::false_type {};
+// Whether the walls run Law's contacts in SIMD batches (else one at a time;
+// each particle meets a wall once, so both give the same sums).
 template <class Law, int Dim>
-struct HasWallBatch<Law, Dim,
-                    std::void_t<decltype(std::declval<const Law&>().wall_force_batch(std::declval<WallBatch<Dim>&>()))>>
-    : std::true_type {};
+struct HasWallBatch : std::bool_constant<Law::kVectorised> {};
+
+// The law's wall_lane over every contact of batch b, in SIMD lanes.
+template <class Law, int Dim>
+void wall_force_batch(const Law& law, WallBatch<Dim>& b) {
+  constexpr int kA = kAngDim<Dim>;
+  const int nb = b.n;
+#pragma omp simd
+  for (int k = 0; k < nb; ++k) {
+    WallContact<Dim> c;
+    for (int a = 0; a < Dim; ++a) {
+      c.rp[a] = b.rp[a][k];
+      c.v[a] = b.v[a][k];
+      c.lever[a] = b.lever[a][k];
+    }
+    for (int a = 0; a < kA; ++a) c.w[a] = b.w[a][k];
+    c.di = b.di[k];
+    c.d_iw = b.d_iw[k];
+    c.ci = b.ci[k];
+    c.inv_mi = b.inv_mi[k];
+    WallForce<Dim> o;
+    law.wall_lane(c, o);
+    for (int a = 0; a < Dim; ++a) b.f[a][k] = o.f[a];
+    for (int a = 0; a < kA; ++a) b.t[a][k] = o.t[a];
+  }
+}
 
 }  // namespace granular

@@ -28,21 +28,7 @@ void configure(Sim& sim, const BoxScene& s) {
   sim.domain.hi = Eigen::Vector2d(xw + s.wall_radius + 1.0, top + 50.0);
   sim.domain.periodic = {false, false};
   sim.domain.finalize();
-  if constexpr (std::is_same_v<decltype(sim.law), ViscElLaw<2>>) {
-    // One material per species, coefficients per unit mass: harmonic mixing
-    // gives a pair k_n = Y, c_n = gamma_N m_eff, c_s = gamma_S m_eff for any two
-    // masses (and m_eff = m_i against an infinitely heavy wall particle), i.e.
-    // Eqs. (1)-(6) with the normal force clipped at zero and no Coulomb cap,
-    // as yade_cases/box_case.py sets up YADE (one ViscElMat per particle).
-    for (auto& m : sim.law.mat) m = {2.0 * s.young, s.gamma_n, s.gamma_s};
-    for (int a = 0; a < ViscElLaw<2>::kSpecies; ++a)
-      for (int b = 0; b < ViscElLaw<2>::kSpecies; ++b) sim.law.mu_ref[a * ViscElLaw<2>::kSpecies + b] = s.mu;
-  } else {
-    sim.law.young = s.young;  // Y
-    sim.law.gamma_n = s.gamma_n;
-    sim.law.gamma_s = s.gamma_s;
-    sim.law.mu = s.mu;
-  }
+  sim.law = std::decay_t<decltype(sim.law)>::from_box(s);  // contact/laws.hpp
   sim.integrator.dt = s.dt;
   sim.integrator.gravity = Eigen::Vector2d(0.0, -s.gravity);  // F = -m g y^
   ShakerMotion<2> m;
@@ -256,7 +242,7 @@ void emplace_walls(BoxSim& sim, const BoxScene& s) {
   if (s.smooth_walls)
     sim.emplace<SmoothBoxOf<Law, Integrator>>();
   else
-    sim.emplace<Simulation<2, Law, Integrator<2, ShakerMotion<2>>>>();
+    sim.emplace<ParticleWallBoxOf<Law, Integrator>>();
 }
 
 template <class Law>
@@ -271,12 +257,12 @@ void emplace_integrator(BoxSim& sim, const BoxScene& s) {
 
 BoxSim make_box(const BoxScene& s) {
   BoxSim sim;
-  if (s.viscel)
-    emplace_integrator<ViscElLaw<2>>(sim, s);
-  else if (s.literal_damping)
-    emplace_integrator<PoeschelHerrmannLaw<2, true>>(sim, s);
-  else
-    emplace_integrator<PoeschelHerrmannLaw<2, false>>(sim, s);
+  const bool known = with_law(BoxLaws{}, s.law, s.damping, [&](auto tag) {
+    emplace_integrator<typename decltype(tag)::type>(sim, s);
+  });
+  if (!known)
+    throw std::logic_error("make_box: contact.law \"" + s.law + "\" with contact.damping \"" +
+                           damping_name(s.damping) + "\" is not a registered box law");
   std::visit([&](auto& v) { configure(v, s); }, sim);
   return sim;
 }

@@ -6,11 +6,10 @@
 #include <variant>
 
 #include "boundary/flat_box_walls.hpp"
-#include "contact/poeschel_herrmann.hpp"
+#include "contact/laws.hpp"
 #include "engine/drum.hpp"  // RunReport
 #include "engine/simulation.hpp"
 #include "integrate/gear.hpp"
-#include "contact/viscel.hpp"
 #include "integrate/leapfrog.hpp"
 #include "integrate/motion.hpp"
 #include "io/h5_output.hpp"
@@ -18,22 +17,20 @@
 
 namespace granular {
 
-template <bool Literal, class Integrator>
-using BoxSimOf = Simulation<2, PoeschelHerrmannLaw<2, Literal>, Integrator>;
-using BoxGear = Gear5<2, ShakerMotion<2>>;
-using BoxLeapfrog = Leapfrog<2, ShakerMotion<2>>;
-template <class Integrator>
-using BoxViscElOf = Simulation<2, ViscElLaw<2>, Integrator>;  // YADE's law, for engine comparisons
+// box.walls = "particles": walls of particles moved by the integrator.
+template <class Law, template <int, class> class Integrator>
+using ParticleWallBoxOf = Simulation<2, Law, Integrator<2, ShakerMotion<2>>>;
 // box.walls = "smooth": the same laws and integrators, without wall particles.
 template <class Law, template <int, class> class Integrator>
 using SmoothBoxOf = Simulation<2, Law, Integrator<2, NoMotion>, FlatBoxWalls>;
-using BoxSim = std::variant<BoxSimOf<false, BoxGear>, BoxSimOf<false, BoxLeapfrog>, BoxSimOf<true, BoxGear>,
-                            BoxSimOf<true, BoxLeapfrog>, BoxViscElOf<BoxGear>, BoxViscElOf<BoxLeapfrog>,
-                            SmoothBoxOf<PoeschelHerrmannLaw<2, false>, Gear5>,
-                            SmoothBoxOf<PoeschelHerrmannLaw<2, false>, Leapfrog>,
-                            SmoothBoxOf<PoeschelHerrmannLaw<2, true>, Gear5>,
-                            SmoothBoxOf<PoeschelHerrmannLaw<2, true>, Leapfrog>, SmoothBoxOf<ViscElLaw<2>, Gear5>,
-                            SmoothBoxOf<ViscElLaw<2>, Leapfrog>>;
+// Every registered law the box can use (contact/laws.hpp: Poeschel and
+// Herrmann's, either reading of its damping; YADE's viscoelastic law), with
+// either integrator (integrator.kind "leapfrog" or "gear") and either wall.
+using BoxLaws = BoxSceneLaws<BoxScene>;
+template <class Law>
+using BoxChoices = TypeList<ParticleWallBoxOf<Law, Gear5>, ParticleWallBoxOf<Law, Leapfrog>, SmoothBoxOf<Law, Gear5>,
+                            SmoothBoxOf<Law, Leapfrog>>;
+using BoxSim = VariantOf<FlatMap<BoxChoices, BoxLaws>>;
 
 // The shaker's motion y_box(t) of a box simulation, wherever its type keeps it.
 template <class Sim>

@@ -11,9 +11,7 @@
 #pragma once
 #include <type_traits>
 
-#include "contact/linear.hpp"
-#include "contact/rapaport.hpp"
-#include "contact/viscel.hpp"
+#include "contact/laws.hpp"
 #include "scene/law_mapping.hpp"
 
 namespace granular {
@@ -25,29 +23,22 @@ struct WallGeometry {
   double inset = 0.0;
 };
 
-// Call after the particles are in sim.p.
+// Call after the particles are in sim.p: the law from its from_rapaport
+// (contact/laws.hpp), the particles' contact diameters and inertia where the
+// law's map scales them.
 template <class Sim>
 WallGeometry set_contact_law(Sim& sim, const MappingInputs& in, double kappa) {
   using Law = std::decay_t<decltype(sim.law)>;
-  constexpr bool viscel = std::is_same_v<Law, ViscElLaw<3>>;
-  constexpr bool linear = std::is_same_v<Law, LinearLaw<3>> || viscel;
-  WallGeometry g{in.wall_diameter, 0.0};
-  if constexpr (linear) {
-    const LinearMapping map = map_rapaport_to_linear(in);
-    if constexpr (viscel)
-      sim.law = map_linear_to_viscel(in, map).law;  // the same geometry, YADE's law
-    else
-      sim.law = map.law;
+  const MappedLaw<Law> m = Law::from_rapaport(in);
+  sim.law = m.law;
+  if (m.diameter_scale != 1.0) {
     for (std::size_t i = 0; i < sim.p.size(); ++i) {
-      sim.p.d[i] *= map.diameter_scale;
-      const double m = 1.0 / sim.p.inv_m[i], d = sim.p.d[i];
-      sim.p.inv_i[i] = 1.0 / (0.5 * kappa * m * d * d);
+      sim.p.d[i] *= m.diameter_scale;
+      const double mass = 1.0 / sim.p.inv_m[i], d = sim.p.d[i];
+      sim.p.inv_i[i] = 1.0 / (0.5 * kappa * mass * d * d);
     }
-    g = {0.0, map.wall_inset};
-  } else {
-    sim.law = in.rapaport();
   }
-  return g;
+  return {m.d_wall, m.wall_inset};
 }
 
 }  // namespace granular

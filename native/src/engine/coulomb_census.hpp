@@ -45,6 +45,7 @@ template <class Law>
 struct CountingLaw {
   const Law& law;
   CoulombCensus& c;
+  static constexpr bool kVectorised = false;  // one contact at a time, each recorded
   GRANULAR_INLINE static double range(double a, double b) { return Law::range(a, b); }
   template <class V, class A, class L>
   auto wall_force(const V& rp, double di, double d_iw, const V& viw, const A& wi, const L& lever, int ci,

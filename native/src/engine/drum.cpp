@@ -219,19 +219,14 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
 
 DrumSim make_drum(const DrumScene& s) {
   DrumSim sim;
-  const bool linear = s.law == "linear";
-  if (s.law == "viscel" && s.capped)
-    sim.emplace<DrumCappedT<ViscElLaw<3>>>();
-  else if (s.law == "viscel")
-    sim.emplace<DrumPeriodicT<ViscElLaw<3>>>();
-  else if (s.capped && linear)
-    sim.emplace<DrumCappedT<LinearLaw<3>>>();
-  else if (s.capped)
-    sim.emplace<DrumCapped>();
-  else if (linear)
-    sim.emplace<DrumPeriodicT<LinearLaw<3>>>();
-  else
-    sim.emplace<DrumPeriodic>();
+  const bool known = with_law(DrumLaws{}, s.law, Damping::normal, [&](auto tag) {
+    using Law = typename decltype(tag)::type;
+    if (s.capped)
+      sim.emplace<DrumCappedT<Law>>();
+    else
+      sim.emplace<DrumPeriodicT<Law>>();
+  });
+  if (!known) throw std::logic_error("make_drum: contact.law \"" + s.law + "\" is not a registered drum law");
   std::visit([&](auto& v) { configure_common(v, s); }, sim);
   return sim;
 }

@@ -10,14 +10,13 @@
 #include "boundary/cylinder_wall.hpp"
 #include "boundary/end_caps.hpp"
 #include "boundary/periodic_axes.hpp"
-#include "contact/linear.hpp"
-#include "contact/rapaport.hpp"
-#include "contact/viscel.hpp"
+#include "contact/laws.hpp"
 #include "engine/run_control.hpp"
 #include "engine/simulation.hpp"
 #include "integrate/leapfrog.hpp"
 #include "io/h5_output.hpp"
 #include "scene/drum_scene.hpp"
+#include "scene/law_mapping.hpp"
 
 namespace granular {
 
@@ -27,10 +26,13 @@ template <class Law>
 using DrumCappedT = Simulation<3, Law, Leapfrog<3>, CylinderWall, EndCaps>;
 using DrumPeriodic = DrumPeriodicT<RapaportLaw<3>>;
 using DrumCapped = DrumCappedT<RapaportLaw<3>>;
-// Rapaport's law, LAMMPS's linear law mapped from it, or YADE's viscoelastic
-// law mapped from that (scene/law_mapping.hpp).
-using DrumSim = std::variant<DrumPeriodic, DrumCapped, DrumPeriodicT<LinearLaw<3>>, DrumCappedT<LinearLaw<3>>,
-                             DrumPeriodicT<ViscElLaw<3>>, DrumCappedT<ViscElLaw<3>>>;
+// Every registered law a scene of Rapaport's particles can use
+// (contact/laws.hpp: Rapaport's law, LAMMPS's linear law mapped from it,
+// YADE's viscoelastic law mapped from that), with periodic or capped ends.
+using DrumLaws = RapaportSceneLaws<MappingInputs>;
+template <class Law>
+using DrumEnds = TypeList<DrumPeriodicT<Law>, DrumCappedT<Law>>;
+using DrumSim = VariantOf<FlatMap<DrumEnds, DrumLaws>>;
 
 DrumSim make_drum(const DrumScene& s);
 

@@ -190,12 +190,10 @@ RunReport run_impl(const ParticlesScene& s, Sim& sim, H5Output* out, bool progre
 
 ParticlesSim make_particles(const ParticlesScene& s) {
   ParticlesSim sim;
-  if (s.law == "viscel")
-    sim.emplace<ParticlesSimT<ViscElLaw<3>>>();
-  else if (s.law == "linear")
-    sim.emplace<ParticlesSimT<LinearLaw<3>>>();
-  else
-    sim.emplace<ParticlesSimT<RapaportLaw<3>>>();
+  const bool known = with_law(RapaportSceneLaws<MappingInputs>{}, s.law, Damping::normal, [&](auto tag) {
+    sim.emplace<ParticlesSimT<typename decltype(tag)::type>>();
+  });
+  if (!known) throw std::logic_error("make_particles: contact.law \"" + s.law + "\" is not a registered law");
   std::visit([&](auto& v) { configure(v, s); }, sim);
   return sim;
 }

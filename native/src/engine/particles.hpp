@@ -6,9 +6,7 @@
 #include <variant>
 
 #include "boundary/plane_walls.hpp"
-#include "contact/linear.hpp"
-#include "contact/rapaport.hpp"
-#include "contact/viscel.hpp"
+#include "contact/laws.hpp"
 #include "engine/drum.hpp"  // RunReport
 #include "engine/simulation.hpp"
 #include "integrate/leapfrog.hpp"
@@ -19,9 +17,11 @@ namespace granular {
 
 template <class Law>
 using ParticlesSimT = Simulation<3, Law, Leapfrog<3>, PlaneWalls>;
-// Rapaport's law, the linear law mapped from it, or YADE's viscoelastic law
-// mapped from that (scene/law_mapping.hpp).
-using ParticlesSim = std::variant<ParticlesSimT<RapaportLaw<3>>, ParticlesSimT<LinearLaw<3>>, ParticlesSimT<ViscElLaw<3>>>;
+// Every registered law a scene of Rapaport's particles can use
+// (contact/laws.hpp), as for the drum.
+template <class Law>
+using ParticlesSims = TypeList<ParticlesSimT<Law>>;
+using ParticlesSim = VariantOf<FlatMap<ParticlesSims, RapaportSceneLaws<MappingInputs>>>;
 
 ParticlesSim make_particles(const ParticlesScene& s);
 

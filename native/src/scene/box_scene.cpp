@@ -4,6 +4,7 @@
 #include <random>
 #include <sstream>
 
+#include "contact/laws.hpp"
 #include "integrate/motion.hpp"
 #include "scene/step_rule.hpp"
 
@@ -67,20 +68,22 @@ BoxScene read_fields(SceneFile& f) {
   s.big_radius = f.positive("big.radius", f.number("big.radius", 4.0));
   s.big_gap = f.non_negative("big.gap", f.number("big.gap", 2.0));
 
-  s.viscel = f.choice("contact.law", {"poeschel_herrmann", "viscel"}, "poeschel_herrmann") == "viscel";
+  s.law = f.choice("contact.law", law_names(BoxSceneLaws<BoxScene>{}), "poeschel_herrmann");  // contact/laws.hpp
+  const bool viscel = s.law == "viscel";
   s.young = f.positive("contact.young", f.number("contact.young", 3e6));
   s.gamma_n = f.non_negative("contact.gamma_n", f.number("contact.gamma_n", 100.0));
   s.gamma_s = f.non_negative("contact.gamma_s", f.number("contact.gamma_s", 1.0));
   s.mu = f.non_negative("contact.mu", f.number("contact.mu", 0.5));
-  s.literal_damping = f.choice("contact.damping", {"normal", "literal"}, "normal") == "literal";
-  if (s.viscel && s.literal_damping)
-    f.fail("contact.damping", "\"literal\" is a reading of Poeschel & Herrmann's Eq. (2); contact.law = \"viscel\" (" +
-                                  f.origin("contact.law") + ") damps the normal component only");
+  s.damping = f.choice("contact.damping", {"normal", "literal"}, "normal") == "literal" ? Damping::literal
+                                                                                        : Damping::normal;
+  if (!with_law(BoxSceneLaws<BoxScene>{}, s.law, s.damping, [](auto) {}))
+    f.fail("contact.damping", "\"literal\" is a reading of Poeschel & Herrmann's Eq. (2); contact.law = \"" + s.law +
+                                  "\" (" + f.origin("contact.law") + ") damps the normal component only");
   // YADE's harmonic mixing takes a zero coefficient as absent, so a zero gamma
   // cannot be represented per material (contact/viscel.hpp).
-  if (s.viscel && s.gamma_n <= 0)
+  if (viscel && s.gamma_n <= 0)
     f.fail("contact.gamma_n", "must be > 0 with contact.law = \"viscel\" (" + f.origin("contact.law") + ")");
-  if (s.viscel && s.gamma_s <= 0)
+  if (viscel && s.gamma_s <= 0)
     f.fail("contact.gamma_s", "must be > 0 with contact.law = \"viscel\" (" + f.origin("contact.law") + ")");
   s.gravity = f.non_negative("gravity.g", f.number("gravity.g", 981.0));
 

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <string>
 
+#include "contact/poeschel_herrmann.hpp"  // Damping
 #include "core/particles.hpp"
 #include "scene/scene_file.hpp"
 
@@ -37,8 +38,11 @@ struct BoxScene {
   double big_radius = 4.0, big_gap = 2.0;  // gap between the floor surface and the big disk's bottom
   // [contact]
   double young = 3e6, gamma_n = 100.0, gamma_s = 1.0, mu = 0.5;
-  bool viscel = false;           // YADE's law (contact/viscel.hpp) instead of Eqs. (1)-(6)
-  bool literal_damping = false;  // Eq. (2) as printed (|v_ij|) instead of the normal component
+  // A registered box law's key (contact/laws.hpp): "poeschel_herrmann",
+  // Eqs. (1)-(6), or "viscel", YADE's law (contact/viscel.hpp); and the reading
+  // of Eq. (2)'s damping: the normal component, or |v_ij| as printed.
+  std::string law = "poeschel_herrmann";
+  Damping damping = Damping::normal;
   double gravity = 981.0;
   // [integrator], [neighbor]
   std::string integrator = "leapfrog";  // "leapfrog" | "gear"; defaults: box_scene.cpp

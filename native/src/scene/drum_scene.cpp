@@ -1,6 +1,8 @@
 #include "scene/drum_scene.hpp"
 
 #include "scene/law_mapping.hpp"
+#include "contact/laws.hpp"
+#include "scene/law_mapping.hpp"
 #include "scene/step_rule.hpp"
 
 #include <algorithm>
@@ -108,7 +110,7 @@ DrumScene read_fields(SceneFile& f) {
   s.seed = static_cast<std::uint64_t>(seed);
   s.rotation = f.flag("particles.rotation", true);
 
-  s.law = f.choice("contact.law", {"rapaport", "linear", "viscel"}, "rapaport");
+  s.law = f.choice("contact.law", law_names(RapaportSceneLaws<MappingInputs>{}), "rapaport");  // contact/laws.hpp
   s.impact_speed = f.positive("contact.impact_speed", f.number("contact.impact_speed", 1.0));
   s.gamma_n = f.non_negative("contact.gamma_n", f.number("contact.gamma_n", 5.0));
   s.kappa = f.positive("contact.kappa", f.number("contact.kappa", 0.2));
@@ -159,9 +161,9 @@ DrumScene read_fields(SceneFile& f) {
                                 " time units, which round to 0 steps of integrator.dt " + number_text(s.dt) +
                                 ": nothing would be simulated");
   check_fits(f, s);  // builds the particles
-  if (s.law != "rapaport") {
+  {
     try {
-      (void)map_rapaport_to_linear(s);
+      check_law_settable(s.law, mapping_inputs(s));
     } catch (const MappingError& e) {
       f.fail("contact.law", "\"" + s.law + "\" is mapped from Rapaport's law, which cannot be done here: " + e.what());
     }

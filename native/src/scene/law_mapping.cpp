@@ -1,5 +1,7 @@
 #include "scene/law_mapping.hpp"
 
+#include "contact/laws.hpp"
+
 #include <cmath>
 #include <stdexcept>
 
@@ -180,6 +182,11 @@ ViscElMapping map_linear_to_viscel(const MappingInputs& in, const LinearMapping&
     for (int b = 0; b < 2; ++b) v.law.mu_ref[a * ViscElLaw<3>::kSpecies + b] = lin.law.pair[a * 2 + b].mu;
   }
   return v;
+}
+
+void check_law_settable(const std::string& law, const MappingInputs& in) {
+  with_law(RapaportSceneLaws<MappingInputs>{}, law, Damping::normal,
+           [&](auto tag) { (void)decltype(tag)::type::from_rapaport(in); });
 }
 
 }  // namespace granular

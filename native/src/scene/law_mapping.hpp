@@ -115,6 +115,11 @@ struct ViscElMapping {
   std::vector<std::string> infeasible;
 };
 ViscElMapping map_linear_to_viscel(const MappingInputs& in, const LinearMapping& lin);
+
+// Sets the registered law with this contact.law key from the scene's
+// parameters (its from_rapaport, contact/laws.hpp) and throws MappingError if
+// that cannot be done (a mapped law the scene's parameters cannot give).
+void check_law_settable(const std::string& law, const MappingInputs& in);
 inline ViscElMapping map_linear_to_viscel(const DrumScene& s, const LinearMapping& lin) {
   return map_linear_to_viscel(mapping_inputs(s), lin);
 }

@@ -13,6 +13,8 @@
 #include <tuple>
 
 #include "contact/rapaport.hpp"
+#include "contact/laws.hpp"
+#include "scene/law_mapping.hpp"
 #include "scene/step_rule.hpp"
 
 namespace granular {
@@ -429,7 +431,7 @@ ParticlesScene read_fields(SceneFile& f) {
   s.height = zhi - zlo + s.d_max;
   double energy = check_overlaps(f, rows, s.spheres, s.d_max);
 
-  s.law = f.choice("contact.law", {"rapaport", "linear", "viscel"}, "rapaport");
+  s.law = f.choice("contact.law", law_names(RapaportSceneLaws<MappingInputs>{}), "rapaport");  // contact/laws.hpp
   s.impact_speed = f.positive("contact.impact_speed", f.number("contact.impact_speed", 1.0));
   s.gamma_n = f.non_negative("contact.gamma_n", f.number("contact.gamma_n", 5.0));
   s.kappa = f.positive("contact.kappa", f.number("contact.kappa", 0.2));
@@ -460,9 +462,9 @@ ParticlesScene read_fields(SceneFile& f) {
   if (s.steps_per(s.duration) < 1)
     f.fail("run.duration", number_text(s.duration) + " time units round to 0 steps of integrator.dt " +
                                number_text(s.dt) + ": nothing would be simulated");
-  if (s.law != "rapaport") {
+  {
     try {
-      (void)map_rapaport_to_linear(mapping_inputs(s));
+      check_law_settable(s.law, mapping_inputs(s));
     } catch (const MappingError& e) {
       f.fail("contact.law", "\"" + s.law + "\" is mapped from Rapaport's law, which cannot be done here: " + e.what());
     }
