@@ -31,8 +31,7 @@ PY = "/usr/bin/python3"
 
 
 def native_bin() -> Path:
-    """The native engine: $GRANULAR_BIN, else the build's. Its tools
-    (thread_probe) sit beside it."""
+    """The native engine: $GRANULAR_BIN, else the build's."""
     return Path(os.environ.get("GRANULAR_BIN") or ROOT / "build" / "granular")
 
 
@@ -117,8 +116,8 @@ def default_cases(threads=(1, 2), lammps_ranks=(1, 2)) -> list[Case]:
     for r in lammps_ranks:
         cases.append(Case(f"drum-lammps-{r}r", drum, "lammps", "linear law, velocity Verlet", r))
     for t in threads:
-        cases.append(Case(f"box-native-verlet-{t}t", box, "native", "Poeschel-Herrmann law, velocity Verlet", t,
-                          ["integrator.kind=verlet"]))
+        cases.append(Case(f"box-native-leapfrog-{t}t", box, "native", "Poeschel-Herrmann law, leapfrog", t,
+                          ["integrator.kind=leapfrog"]))
         cases.append(Case(f"box-native-gear-{t}t", box, "native", "Poeschel-Herrmann law, Gear 5th order", t,
                           ["integrator.kind=gear"]))
     cases.append(Case("box-lammps-1r", box, "lammps", "gran/hooke, velocity Verlet", 1))
@@ -128,9 +127,9 @@ def default_cases(threads=(1, 2), lammps_ranks=(1, 2)) -> list[Case]:
         m = max(threads)
         cases.append(Case(f"drum-native-rapaport-{m}x1t", drum, "native",
                           f"Rapaport law, leapfrog: {m} 1-thread runs at once, summed", 1, copies=m))
-        cases.append(Case(f"box-native-verlet-{m}x1t", box, "native",
-                          f"Poeschel-Herrmann law, velocity Verlet: {m} 1-thread runs at once, summed", 1,
-                          ["integrator.kind=verlet"], copies=m))
+        cases.append(Case(f"box-native-leapfrog-{m}x1t", box, "native",
+                          f"Poeschel-Herrmann law, leapfrog: {m} 1-thread runs at once, summed", 1,
+                          ["integrator.kind=leapfrog"], copies=m))
     return cases
 
 
@@ -198,8 +197,8 @@ SKINS = {"drum": (0.1, 0.2, 0.4, 0.6, 0.8, 1.2), "box": (0.25, 0.5, 0.75, 1.0, 1
 def skin_cases() -> list[Case]:
     cases = [Case(f"skin-drum-native-rapaport-{s:g}", "scenes/drum/A.toml", "native",
                   f"Rapaport law, leapfrog, skin {s:g}", 1, [f"neighbor.skin={s!r}"]) for s in SKINS["drum"]]
-    cases += [Case(f"skin-box-native-verlet-{s:g}", "scenes/box/f3.0_big.toml", "native",
-                   f"Poeschel-Herrmann law, velocity Verlet (the default), skin {s:g} cm", 1,
+    cases += [Case(f"skin-box-native-leapfrog-{s:g}", "scenes/box/f3.0_big.toml", "native",
+                   f"Poeschel-Herrmann law, leapfrog (the default), skin {s:g} cm", 1,
                    [f"neighbor.skin={s!r}"]) for s in SKINS["box"]]
     return cases
 
@@ -231,7 +230,7 @@ def plot_skin(sweep, path) -> None:
                     marker="o", capsize=3, label="particle-steps/s")
         ax.set_xlabel("skin (" + ("small diameters" if scene == "drum" else "cm") + ")")
         ax.set_ylabel("10⁶ particle-steps/s, 1 thread")
-        ax.set_title({"drum": "drum #A, Rapaport's law", "box": "box 3 Hz, Gear"}.get(scene, scene))
+        ax.set_title({"drum": "drum #A, Rapaport's law", "box": "box 3 Hz, leapfrog"}.get(scene, scene))
         if all(p["builds_per_step"] is not None for p in pts):
             ax2 = ax.twinx()
             ax2.plot(s, [p["builds_per_step"] for p in pts], "s--", color="tab:red", label="builds per step")
@@ -249,21 +248,21 @@ RATIOS = [  # (numerator, denominator, what it says)
     ("drum-native-linear-2t", "drum-native-linear-1t", "drum, linear law: native 2 threads / 1 thread"),
     ("drum-lammps-2r", "drum-lammps-1r", "drum: LAMMPS 2 ranks / 1 rank"),
     ("drum-native-linear-2t", "drum-lammps-2r", "drum, same law: native 2 threads / LAMMPS 2 ranks"),
-    ("box-native-verlet-1t", "box-lammps-1r", "box, same law and integrator: native Verlet / LAMMPS serial"),
+    ("box-native-leapfrog-1t", "box-lammps-1r", "box, same law and integrator: native leapfrog / LAMMPS serial"),
     ("box-native-gear-1t", "box-lammps-1r", "box: native Gear / LAMMPS serial"),
-    ("box-native-verlet-2t", "box-native-verlet-1t", "box: native Verlet 2 threads / 1 thread"),
+    ("box-native-leapfrog-2t", "box-native-leapfrog-1t", "box: native leapfrog 2 threads / 1 thread"),
     ("box-native-gear-2t", "box-native-gear-1t", "box: native Gear 2 threads / 1 thread"),
     ("drum-native-rapaport-2x1t", "drum-native-rapaport-1t",
      "drum: two 1-thread runs at once / one alone (this machine's ceiling for 2 workers)"),
     ("drum-native-rapaport-2t", "drum-native-rapaport-2x1t", "drum: native 2 threads / that ceiling"),
-    ("box-native-verlet-2x1t", "box-native-verlet-1t",
+    ("box-native-leapfrog-2x1t", "box-native-leapfrog-1t",
      "box: two 1-thread runs at once / one alone (this machine's ceiling for 2 workers)"),
-    ("box-native-verlet-2t", "box-native-verlet-2x1t", "box: native Verlet 2 threads / that ceiling"),
+    ("box-native-leapfrog-2t", "box-native-leapfrog-2x1t", "box: native leapfrog 2 threads / that ceiling"),
     ("drum-native-viscel-1t", "drum-yade-1t", "drum, same law: native 1 thread / YADE 1 thread"),
     ("drum-native-viscel-2t", "drum-yade-2t", "drum, same law: native 2 threads / YADE 2 threads"),
     ("drum-yade-2t", "drum-yade-1t", "drum: YADE 2 threads / 1 thread"),
-    ("box-native-verlet-1t", "box-yade-1t", "box: native Verlet / YADE, 1 thread"),
-    ("box-native-verlet-2t", "box-yade-2t", "box: native Verlet / YADE, 2 threads"),
+    ("box-native-leapfrog-1t", "box-yade-1t", "box: native leapfrog / YADE, 1 thread"),
+    ("box-native-leapfrog-2t", "box-yade-2t", "box: native leapfrog / YADE, 2 threads"),
     ("box-yade-2t", "box-yade-1t", "box: YADE 2 threads / 1 thread"),
 ]
 
@@ -411,37 +410,6 @@ def run_bench(cases, rounds=3, drum_rotations=1.0, drum_settle=0.5, box_seconds=
             "skin": skin_sweep(rows)}
 
 
-def machine_probe(rounds=8, particles=18800) -> dict | None:
-    """`build/thread_probe`: two threads against two processes on a loop shaped
-    like the step with no physics in it (native/tools/thread_probe.cpp). Tells
-    what this machine gives two workers that must finish together, whatever the
-    program; None when the probe was not built. 18 800 particles make each
-    thread's half-step as long as the shaken box's on two threads here (11.6
-    µs), so that its halo figure is the box's exchange at the box's pace."""
-    probe = native_bin().parent / "thread_probe"
-    if not probe.exists():
-        return None
-    steps = max(1000, int(1.6e9 / particles / 10))
-    p = subprocess.run([str(probe), "--rounds", str(rounds), "--particles", str(particles), "--steps", str(steps)],
-                       capture_output=True, text=True)
-    if p.returncode != 0:
-        raise RuntimeError(f"thread_probe failed:\n{p.stderr.strip()}")
-    return json.loads(p.stdout)
-
-
-def probe_line(probe) -> str:
-    s, rt = probe["speedup"], probe["round_trip_ns"]
-    return (f"This machine, on a loop with no physics ({probe['particles']} particles, `build/thread_probe`, "
-            f"{probe['rounds']} rounds): two processes at once {s['two_processes']:.2f} times one alone "
-            f"({s['two_processes_slower_one']:.2f} counting the slower one); two threads that never meet "
-            f"{s['two_threads_apart']:.2f}; two threads with a barrier per step "
-            f"{s['two_threads_one_barrier_per_step']:.2f}; with the engine's two meetings per step "
-            f"{s['two_threads_two_meetings_per_step']:.2f}, and exchanging {probe['halo_lines']} and "
-            f"{probe['ghost_lines']} cache lines at them (the shaken box's halo) "
-            f"{s['two_threads_two_meetings_and_halo']:.2f}. Cache-line round trip between the threads "
-            f"{rt['median']:.0f} ns (median; {rt['min']:.0f} – {rt['max']:.0f}).")
-
-
 def markdown(result) -> str:
     lines = ["| case | engine | what runs | workers | particles | particle-steps/s (median) | min – max |",
              "|---|---|---|---|---|---|---|"]
@@ -473,8 +441,6 @@ def markdown(result) -> str:
                       f"{p['builds_per_step']:.3f} |" if p["builds_per_step"] is not None else
                       f"| {scene} | {p['skin']:g} | {p['median']:.3g} | {p['min']:.3g} – {p['max']:.3g} | |"
                       for p in pts]
-    if result.get("probe"):
-        lines += ["", probe_line(result["probe"])]
     s = result["settings"]
     lines += ["", f"{s['rounds']} interleaved rounds; drum: {s['drum_settle_rotations']} rotations settled, "
               f"{s['drum_rotations']} timed; box: {s['box_settle_seconds']} s of shaking settled, "
@@ -492,7 +458,6 @@ def main(args) -> int:
             return 2
     try:
         result = run_bench(cases, rounds=args.rounds, drum_rotations=args.rotations, box_seconds=args.seconds)
-        result["probe"] = machine_probe() if any(c.engine == "native" and c.workers > 1 for c in cases) else None
     except RuntimeError as exc:
         print(f"bench: error: {exc}", file=sys.stderr)
         return 2

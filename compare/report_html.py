@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROW_COLOURS = {"native-paper": "C0", "native-linear": "C1", "native-verlet": "C1", "lammps": "C2",
+ROW_COLOURS = {"native-paper": "C0", "native-linear": "C1", "native-leapfrog": "C1", "lammps": "C2",
                "native-viscel": "C3", "yade": "C4"}
 
 

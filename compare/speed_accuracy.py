@@ -35,7 +35,7 @@ RATES = {
     "drum linear leapfrog": 6.57e6,
     "drum viscel leapfrog": 6.49e6,
     "box poeschel-herrmann gear5": 1.88e7,
-    "box poeschel-herrmann verlet": 2.37e7,
+    "box poeschel-herrmann leapfrog": 2.37e7,
 }
 
 

@@ -54,9 +54,9 @@ METHODS = {
     "drum native viscel": ("drum", "native", ['contact.law="viscel"']),
     "drum lammps": ("drum", "lammps", []),
     "drum yade": ("drum", "yade", []),
-    "box native gear": ("box", "native", []),
-    "box native verlet": ("box", "native", ['integrator.kind="verlet"']),
-    "box native viscel": ("box", "native", ['contact.law="viscel"', 'integrator.kind="verlet"']),
+    "box native gear": ("box", "native", ['integrator.kind="gear"']),
+    "box native leapfrog": ("box", "native", ['integrator.kind="leapfrog"']),
+    "box native viscel": ("box", "native", ['contact.law="viscel"', 'integrator.kind="leapfrog"']),
     "box lammps": ("box", "lammps", []),
     "box yade": ("box", "yade", []),
 }
@@ -405,7 +405,7 @@ def stability_limits(rows):
 # ---------------------------------------------------------------- figures
 
 COLOURS = {"native rapaport": "C0", "native linear": "C1", "native viscel": "C2", "lammps": "C3", "yade": "C4",
-           "native gear": "C0", "native verlet": "C1"}
+           "native gear": "C0", "native leapfrog": "C1"}
 
 
 def pareto(points):

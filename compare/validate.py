@@ -8,7 +8,8 @@ text and the overrides: a rerun reuses finished runs, so an interrupted suite
 resumes where it stopped. A cached run is reused only while the scene still
 resolves to what it ran (`granular info --json`, defaults included): a changed
 default in the engine makes it stale, and it runs again. A run is written to a temporary name and renamed
-when its engine exits cleanly, so a half-written file is never reused.
+when its engine exits cleanly, so a half-written file is never reused. Runs
+cached under a row's earlier name are found as well (OLD_ROW_NAMES).
 DIR/report.json holds every number, DIR/report.html the page (report_html.py).
 Exit status 1 when a gating comparison disagrees.
 """
@@ -50,9 +51,9 @@ BOX_ROWS = {
     # the paper's law and its Gear predictor-corrector at the paper's step, pinned
     # so that a suite running the other rows at another step keeps it
     "native-paper": ("native", ["integrator.kind=\"gear\"", "integrator.dt=5e-5"]),
-    "native-verlet": ("native", ["integrator.kind=\"verlet\""]),
+    "native-leapfrog": ("native", ["integrator.kind=\"leapfrog\""]),
     "lammps": ("lammps", []),  # gran/hooke is the paper's law exactly; velocity Verlet
-    "native-viscel": ("native", ["contact.law=\"viscel\"", "integrator.kind=\"verlet\""]),
+    "native-viscel": ("native", ["contact.law=\"viscel\"", "integrator.kind=\"leapfrog\""]),
     "yade": ("yade", []),  # leapfrog
 }
 # (a, b, gating): gating pairs run the same model and integrator in two engines.
@@ -60,8 +61,8 @@ BOX_ROWS = {
 # facets, not the smooth cylinder (docs/tolerances.md, "Which rows are compared").
 DRUM_PAIRS = [("native-linear", "lammps", True), ("native-viscel", "yade", False),
               ("native-paper", "native-linear", False), ("native-paper", "native-viscel", False)]
-BOX_PAIRS = [("native-verlet", "lammps", True), ("native-viscel", "yade", True),
-             ("native-paper", "native-verlet", False), ("native-verlet", "native-viscel", False)]
+BOX_PAIRS = [("native-leapfrog", "lammps", True), ("native-viscel", "yade", True),
+             ("native-paper", "native-leapfrog", False), ("native-leapfrog", "native-viscel", False)]
 
 # Equivalence margins of docs/tolerances.md, each with its physical reason there,
 # fixed before the runs. Scalars in their own units; yes/no observables as a
@@ -141,7 +142,7 @@ SUITES = {
         # packing and engine; at 2.6 Hz, below the convection onset, in none
         # (docs/shaken_box.md, "R = 4 cm").
         Case("box_rise", "box", "scenes/box/f3.0_big.toml", ["run.duration=12", "big.gap=15"],
-             list(range(1, 11)), ["native-verlet", "lammps", "native-viscel", "yade"],
+             list(range(1, 11)), ["native-leapfrog", "lammps", "native-viscel", "yade"],
              frequencies=[2.6, 3.2], timeout=1800,
              compared={"2.6Hz": ["rose", "convecting", "bed_height"],
                        "3.2Hz": ["rose", "convecting", "phi_max", "top_time_s"]},
@@ -167,7 +168,7 @@ SUITES = {
         # scenes' placement): the rise and convection onsets, Phi(D), the heights.
         # Every row but native-paper at dt = 2e-4, inside every observable's
         # tolerance in the step sweep (docs/speed_accuracy.md); native-paper keeps
-        # the paper's Gear at 5e-5, so native-paper - native-verlet measures the step.
+        # the paper's Gear at 5e-5, so native-paper - native-leapfrog measures the step.
         # The bed settles before the shaking starts, the same at every frequency:
         # it is compared once.
         Case("box", "box", "scenes/box/f3.0_big.toml", ["run.duration=60", "integrator.dt=2e-4"],
@@ -348,6 +349,20 @@ def resolved_scene(job):
 # the key still matches a scene that resolves it to this value.
 KEYS_ADDED_LATER = {("box", "walls"): "particles", ("particles", "rotation"): True}
 
+# Earlier names, for runs cached under them: a row's runs are also looked for
+# under its earlier names (OLD_ROW_NAMES), and a cached resolution that holds
+# a value's earlier name matches the scene that resolves to its present one
+# (OLD_VALUES). A suite directory made before keeps its runs.
+OLD_ROW_NAMES = {"native-leapfrog": ["native-verlet"]}
+OLD_VALUES = {("integrator", "kind"): {"verlet": "leapfrog"}}
+
+
+def old_row_names(row):
+    """The earlier names of a row label, planted errors (ROW+MUTANT) and
+    false-alarm groups (ROW@rR.G) included."""
+    cut = min([i for i in (row.find("+"), row.find("@")) if i >= 0], default=len(row))
+    return [old + row[cut:] for old in OLD_ROW_NAMES.get(row[:cut], [])]
+
 
 # Scene keys an engine does not read, per engine and scene kind: a change in
 # them does not change its run. LAMMPS and YADE shake the box with their own
@@ -368,24 +383,30 @@ def same_resolution(stored, current, ignore=()):
     for (table, key), value in KEYS_ADDED_LATER.items():
         if key not in stored.get(table, {}) and current.get(table, {}).get(key) == value:
             stored.setdefault(table, {})[key] = value
+    for (table, key), names in OLD_VALUES.items():
+        value = stored.get(table, {}).get(key)
+        if isinstance(value, str) and value in names:
+            stored[table][key] = names[value]
     return stored == current
 
 
 def same_run_elsewhere(job, resolved):
     """A finished run of the same case, row, variant and seed cached under
-    another key (another scene text or overrides) whose scene resolved to
-    exactly this one: e.g. a default pinned in the overrides at the value the
-    run had. Returns its .h5 path or None."""
-    stem = job.path.stem
-    prefix = stem[:stem.rindex("_") + 1]
-    for meta_path in sorted(job.path.parent.glob(prefix + "*.json")):
-        h5 = meta_path.with_suffix(".h5")
-        if h5 == job.path or not h5.exists() or h5.stem[len(prefix):].count("_"):
-            continue
-        meta = json.loads(meta_path.read_text())
-        if meta.get("returncode") == 0 and "resolved_scene" in meta and same_resolution(
-                meta["resolved_scene"], resolved, NOT_READ.get((job.engine, job.case.kind), ())):
-            return h5
+    another key (another scene text or overrides), or under one of the row's
+    earlier names (OLD_ROW_NAMES), whose scene resolved to exactly this one:
+    e.g. a default pinned in the overrides at the value the run had. Returns
+    its .h5 path or None."""
+    tail = f"_{job.variant or 'x'}_s{job.seed}_"
+    for row in [job.row, *old_row_names(job.row)]:
+        prefix = f"{job.case.name}_{row}{tail}"
+        for meta_path in sorted(job.path.parent.glob(prefix + "*.json")):
+            h5 = meta_path.with_suffix(".h5")
+            if h5 == job.path or not h5.exists() or h5.stem[len(prefix):].count("_"):
+                continue
+            meta = json.loads(meta_path.read_text())
+            if meta.get("returncode") == 0 and "resolved_scene" in meta and same_resolution(
+                    meta["resolved_scene"], resolved, NOT_READ.get((job.engine, job.case.kind), ())):
+                return h5
     return None
 
 

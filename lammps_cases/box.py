@@ -108,7 +108,7 @@ def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):
                  "scene_json": ini.attrs["scene_json"], "scene_toml": ini.attrs["scene_toml"],
                  "scene_file": ini.attrs.get("scene_file", ""), "frequency": f, "amplitude": amp, "settle": settle,
                  "box_width": float(box["width"]), "wall_radius": float(box["wall_radius"]),
-                 "integrator": "verlet (fix nve/sphere)", "lammps_processes": nprocs}
+                 "integrator": "velocity Verlet (fix nve/sphere)", "lammps_processes": nprocs}
         out = SchemaWriter(out_path, 2, n, attrs, ["small", "big", "wall"], with_force=True)
         if len(big):
             out.init_series("trace", {"time": 0, "cycle": 0, "box_y": 0, "big_position": 2, "big_velocity": 2})

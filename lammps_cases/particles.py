@@ -88,7 +88,7 @@ def run(ini, out_path, version, nprocs=1, quiet=False, timed_from=None):
         attrs = {"engine": "lammps", "engine_version": version, "scene_kind": "particles", "scene_name": ini.name,
                  "scene_json": ini.attrs["scene_json"], "scene_toml": ini.attrs["scene_toml"],
                  "scene_file": ini.attrs.get("scene_file", ""), "lammps_processes": nprocs,
-                 "integrator": "velocity verlet (fix nve/sphere)",
+                 "integrator": "velocity Verlet (fix nve/sphere)",
                  "contact_law": "linear (mapped from Rapaport, docs/model_mapping.md)"}
         out = SchemaWriter(out_path, 3, n, attrs, ["small", "big"])
 

@@ -5,7 +5,7 @@
 #   scripts/box_long.sh [DIR] [LANES]      runs (restartable) into DIR/runs, report into DIR/report
 #
 # DIR defaults to /var/lib/granular/box. Every run is a shipped scene at its
-# defaults (velocity Verlet, 2e-4 s) with the packing (particles.seed) and the
+# defaults (the leapfrog, 2e-4 s) with the packing (particles.seed) and the
 # quantity studied overridden:
 #   fig4_R{2.0,3.0}_sS    Fig. 4: R = 2 and 3 cm at 3.2 Hz, 120 s, packings 1-12
 #   f{2.6,2.8,3.0}_{big,nobig}_sS   Figs. 1 and 3: 60 s, packings 1-6

@@ -25,6 +25,7 @@ from lammps_cases.scene import (ROOT, SceneRefused, refuse_frozen_rotation, is_d
 from .common import write_workdir
 
 HERE = Path(__file__).resolve().parent
+BOX_INTEGRATORS = ("leapfrog", "gear")  # the box's integrator.kind values
 
 
 def refuse_unrepresentable(ini) -> None:
@@ -47,9 +48,12 @@ def refuse_unrepresentable(ini) -> None:
         if s.get("box", {}).get("walls", "particles") != "particles":
             raise SceneRefused("\"smooth\": smooth walls are not set up in the YADE box case, which moves walls "
                                "of particles", key="box.walls")
-        kind = s.get("integrator", {}).get("kind", "gear")
-        if kind not in ("gear", "verlet"):
-            raise SceneRefused(f"\"{kind}\": unknown", key="integrator.kind")
+        # The native engine's choice and words (native/src/scene/box_scene.cpp); YADE
+        # runs its leapfrog for either.
+        kind = s.get("integrator", {}).get("kind", "leapfrog")
+        if kind not in BOX_INTEGRATORS:
+            allowed = ", ".join(f"\"{k}\"" for k in BOX_INTEGRATORS)
+            raise SceneRefused(f"unknown value \"{kind}\" (allowed: {allowed})", key="integrator.kind")
     elif ini.kind == "particles":
         kind = s.get("integrator", {}).get("kind", "leapfrog")
         if kind != "leapfrog":

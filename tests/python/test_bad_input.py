@@ -245,3 +245,49 @@ def test_drivers_keep_an_existing_output(module, tmp_path):
     r = driver(module, BOX.relative_to(ROOT), out)
     assert r.returncode == 2 and str(out) in r.stderr and "--force" in r.stderr
     assert out.read_bytes() == b"keep"
+
+
+# --- the box's integrator names
+
+
+def test_the_box_integrator_is_leapfrog_or_gear_and_verlet_is_refused():
+    """The box's integrator.kind takes "leapfrog" (the default, the drum's name
+    for the same integrator) and "gear"; "verlet" is refused with the names
+    allowed, by the engine and in the same words by the YADE driver's check."""
+    import json
+    from types import SimpleNamespace
+
+    from lammps_cases.scene import SceneRefused
+    from yade_cases.__main__ import refuse_unrepresentable
+
+    def box(scene):
+        return SimpleNamespace(kind="shaken_box", scene=scene, derived=scene.get("derived", {}))
+
+    rel = BOX.relative_to(ROOT)
+    assert json.loads(granular("info", rel, "--json").stdout)["integrator"]["kind"] == "leapfrog"
+    for kind in ("leapfrog", "gear"):
+        r = granular("info", rel, "--json", "--set", f"integrator.kind={kind}")
+        assert r.returncode == 0, r.stderr
+        scene = json.loads(r.stdout)
+        assert scene["integrator"]["kind"] == kind
+        refuse_unrepresentable(box(scene))
+    r = granular("info", rel, "--set", "integrator.kind=verlet")
+    assert r.returncode == 2
+    head = f"error: {rel}: integrator.kind (--set): "
+    assert r.stderr.strip().startswith(head), r.stderr
+    reason = r.stderr.strip()[len(head):]
+    assert reason.startswith('unknown value "verlet"') and '"leapfrog", "gear"' in reason, reason
+    scene["integrator"]["kind"] = "verlet"
+    with pytest.raises(SceneRefused) as refused:
+        refuse_unrepresentable(box(scene))
+    assert refused.value.key == "integrator.kind" and refused.value.reason == reason
+
+
+@needs_yade
+def test_the_yade_driver_refuses_verlet_as_the_engine_does(tmp_path):
+    rel = BOX.relative_to(ROOT)
+    native = granular("info", rel, "--set", "integrator.kind=verlet")
+    r = driver("yade_cases", rel, tmp_path / "out.h5", "--set", "integrator.kind=verlet")
+    assert r.returncode == 2
+    assert r.stderr.strip() == "yade_cases: error: " + native.stderr.strip().removeprefix("error: ")
+    assert list(tmp_path.iterdir()) == []

@@ -1,6 +1,7 @@
 """The native engine and LAMMPS give the same trajectory for the same law, the
-same step and the same integrator (velocity Verlet): a particle pair and a
-particle against the rotating drum wall under LAMMPS's linear law
+same step and the same integrator (LAMMPS's velocity Verlet, the native
+leapfrog's two stages): a particle pair and a particle against the rotating
+drum wall under LAMMPS's linear law
 (contact/linear.hpp = pair_style granular / fix wall/gran/region), and a disk
 pair under gran/hooke (= the Poeschel-Herrmann law, normal damping) in 2D.
 Agreement to 1e-6 relative, step by step."""

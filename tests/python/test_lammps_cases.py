@@ -107,14 +107,14 @@ def test_bench_times_both_engines_on_the_same_box(tmp_path):
     the medians. Speeds themselves are not asserted (a benchmark, not a test)."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     res = subprocess.run([sys.executable, "-m", "compare", "bench", "-o", str(tmp_path), "--rounds", "1",
-                          "--seconds", "0.05", "--only", "box-native-verlet-1t", "--only", "box-lammps-1r"],
+                          "--seconds", "0.05", "--only", "box-native-leapfrog-1t", "--only", "box-lammps-1r"],
                          cwd=ROOT, env=env, capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
     data = json.loads((tmp_path / "bench.json").read_text())
     rows = {r["key"]: r for r in data["cases"]}
-    assert set(rows) == {"box-native-verlet-1t", "box-lammps-1r"}
-    assert rows["box-native-verlet-1t"]["particles"] == rows["box-lammps-1r"]["particles"] == 1135
+    assert set(rows) == {"box-native-leapfrog-1t", "box-lammps-1r"}
+    assert rows["box-native-leapfrog-1t"]["particles"] == rows["box-lammps-1r"]["particles"] == 1135
     assert all(r["median"] > 0 for r in rows.values())
     (ratio,) = [q for q in data["ratios"] if q["denominator"] == "box-lammps-1r"]
-    assert ratio["ratio"] == pytest.approx(rows["box-native-verlet-1t"]["median"] / rows["box-lammps-1r"]["median"])
+    assert ratio["ratio"] == pytest.approx(rows["box-native-leapfrog-1t"]["median"] / rows["box-lammps-1r"]["median"])
     assert "| box-lammps-1r |" in (tmp_path / "bench.md").read_text()

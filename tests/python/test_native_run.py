@@ -268,7 +268,7 @@ def test_bench_breakdown_goes_with_the_median_round():
     """The breakdown a case reports is that of the round whose rate is the
     median reported, whatever order the rounds ran in."""
     from compare.bench import Case
-    c = Case("box-native-verlet-1t", "scenes/box/f3.0_big.toml", "native", "one thread", 1)
+    c = Case("box-native-leapfrog-1t", "scenes/box/f3.0_big.toml", "native", "one thread", 1)
     c.rates = [3.0, 1.0, 2.0, 5.0, 4.0]
     c.breakdowns = [{"round": k} for k in range(5)]
     assert c.summary()["median"] == 3.0 and c.summary()["breakdown"] == {"round": 0}
@@ -352,8 +352,8 @@ def test_bench_ratio_pairs_the_rounds_as_well_as_the_medians():
     between one case and the next in one round the two differ, and the markdown
     table shows both."""
     from compare.bench import Case, markdown, ratio
-    num = Case("box-native-verlet-2t", "scenes/box/f3.0_big.toml", "native", "two threads", 2)
-    den = Case("box-native-verlet-1t", "scenes/box/f3.0_big.toml", "native", "one thread", 1)
+    num = Case("box-native-leapfrog-2t", "scenes/box/f3.0_big.toml", "native", "two threads", 2)
+    den = Case("box-native-leapfrog-1t", "scenes/box/f3.0_big.toml", "native", "one thread", 1)
     num.rates, den.rates = [20.0, 20.0, 10.0], [10.0, 5.0, 5.0]
     q = ratio(num.summary(), den.summary(), "box: 2 threads / 1 thread")
     assert q["ratio"] == pytest.approx(20.0 / 5.0)
@@ -387,36 +387,6 @@ def test_bench_scaling_times_the_same_stretch_of_the_flow_at_every_size():
     # Each size gets at least a tenth of the largest drum's work per round.
     work = [r * L for r, L in zip(repeats, lengths)]
     assert max(work) <= 10 * min(work), work
-
-
-def test_thread_probe_reports_its_loop_and_compare_bench_quotes_it(monkeypatch):
-    """build/thread_probe (two threads against two processes on a loop with no
-    physics): every time is positive, each speed-up is twice the one-thread
-    half's time over that configuration's time, each round's slower process is
-    the slower of that round's two, and compare bench's line quotes the
-    figures."""
-    from compare.bench import machine_probe, probe_line
-    if not (BIN.parent / "thread_probe").exists():
-        pytest.skip("thread_probe not built")
-    monkeypatch.setenv("GRANULAR_BIN", str(BIN))
-    probe = machine_probe(rounds=3, particles=2000)
-    us, s = probe["us_per_step"], probe["speedup"]
-    assert probe["particles"] == 2000 and probe["rounds"] == 3
-    assert all(v > 0 for v in us.values()), us
-    assert len(probe["rounds_us"]["processes"]) == 6  # two processes a round
-    for key, time_key in (("two_processes", "two_processes_half_each"),
-                          ("two_processes_slower_one", "two_processes_slower_one"),
-                          ("two_threads_apart", "two_threads_apart"),
-                          ("two_threads_one_barrier_per_step", "two_threads_one_barrier_per_step"),
-                          ("two_threads_two_meetings_per_step", "two_threads_two_meetings_per_step"),
-                          ("two_threads_two_meetings_and_halo", "two_threads_two_meetings_and_halo")):
-        assert s[key] == pytest.approx(2 * us["one_thread_half_alone"] / us[time_key]), key
-    procs, slower = probe["rounds_us"]["processes"], probe["rounds_us"]["processes_slower"]
-    assert slower == [max(procs[2 * r], procs[2 * r + 1]) for r in range(3)], (procs, slower)
-    assert probe["round_trip_ns"]["min"] <= probe["round_trip_ns"]["median"] <= probe["round_trip_ns"]["max"]
-    line = probe_line(probe)
-    assert f"{s['two_threads_one_barrier_per_step']:.2f}" in line and f"{s['two_processes']:.2f}" in line
-    assert f"{s['two_threads_two_meetings_and_halo']:.2f}" in line and probe["halo_lines"] == 36
 
 
 def test_bench_scaling_pairs_the_sizes_round_by_round():

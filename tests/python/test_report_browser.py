@@ -33,7 +33,7 @@ def synthetic_report():
     variants = {}
     for f, scale, conv in (("2.6Hz", 0.02, False), ("3.2Hz", 1.0, True)):
         rows = {}
-        for row in ("native-verlet", "lammps"):
+        for row in ("native-leapfrog", "lammps"):
             runs = [fake_run(s, scale, conv, rng) for s in (1, 2, 3)]
             rows[row] = {"runs": runs, "failed_runs": [], "speed": 1e7,
                          "summary": {k: summary([r[k] for r in runs]) for k in ("bed_height", "phi_max")},
@@ -41,8 +41,8 @@ def synthetic_report():
         variants[f] = rows
     comps = []
     for f, rows in variants.items():
-        a, b = rows["native-verlet"], rows["lammps"]
-        base = {"case": "box", "variant": f, "a_row": "native-verlet", "b_row": "lammps", "gating": True,
+        a, b = rows["native-leapfrog"], rows["lammps"]
+        base = {"case": "box", "variant": f, "a_row": "native-leapfrog", "b_row": "lammps", "gating": True,
                 "why": "same model"}
         if f == "3.2Hz":
             comps.append(base | compare_rows("phi_max", a["runs"], b["runs"]))

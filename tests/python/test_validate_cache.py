@@ -1,13 +1,16 @@
 """The validation cache (compare/validate.py): a finished run is reused, a run
-whose scene now resolves differently (a changed engine default) runs again, and
-a run cached before the check existed is adopted as it is."""
+whose scene now resolves differently (a changed engine default) runs again, a
+run cached before the check existed is adopted as it is, and a run cached
+under a row's earlier name is found under its present one."""
 import json
+import os
 import sys
 
 import pytest
 
 from compare import validate
-from compare.validate import Case, jobs_of, resolved_scene, run_job, same_resolution, same_run_elsewhere, SUITES
+from compare.validate import (Case, jobs_of, old_row_names, resolved_scene, run_job, same_resolution,
+                              same_run_elsewhere, SUITES)
 
 
 @pytest.fixture
@@ -107,10 +110,82 @@ def test_a_key_the_engine_does_not_read_does_not_make_its_run_stale():
     # LAMMPS and YADE shake the box with their own integrators: a changed
     # integrator.kind leaves their runs valid, a changed step does not.
     old = {"integrator": {"kind": "gear", "dt": 2e-4}, "shaking": {"frequency": 3.0}}
-    new = {"integrator": {"kind": "verlet", "dt": 2e-4}, "shaking": {"frequency": 3.0}}
+    new = {"integrator": {"kind": "leapfrog", "dt": 2e-4}, "shaking": {"frequency": 3.0}}
     ignore = validate.NOT_READ[("lammps", "box")]
     assert same_resolution(old, new, ignore)
     assert not same_resolution(old, new)  # the native engine reads it
-    assert not same_resolution(old, {"integrator": {"kind": "verlet", "dt": 5e-5}, "shaking": {"frequency": 3.0}},
+    assert not same_resolution(old, {"integrator": {"kind": "leapfrog", "dt": 5e-5}, "shaking": {"frequency": 3.0}},
                                ignore)
     assert old["integrator"]["kind"] == "gear"  # the stored resolution is left as it was
+
+
+@pytest.fixture
+def tiny_box(monkeypatch):
+    # The box's two rows that name the integrator, a few hundredths of a second each.
+    case = Case("tinybox", "box", "scenes/box/f3.0_big.toml", ["run.settle=0.02", "run.duration=0.02"],
+                [1], ["native-leapfrog", "native-viscel"], frequencies=[3.0], timeout=120)
+    monkeypatch.setitem(SUITES, "tinybox", [case])
+    return "tinybox"
+
+
+def cached_as_before(job, outdir):
+    """Moves a finished run of `job` to the file and metadata a suite made
+    before the box's integrator was called "leapfrog": row native-verlet,
+    override integrator.kind="verlet", resolved scene with kind "verlet"."""
+    old_row = job.row.replace("native-leapfrog", "native-verlet")
+    old_sets = [x.replace('"leapfrog"', '"verlet"') for x in job.sets]
+    old = validate._job(job.case, old_row, job.variant, job.seed, job.engine, old_sets, outdir)
+    meta = json.loads(job.path.with_suffix(".json").read_text())
+    meta["resolved_scene"]["integrator"]["kind"] = "verlet"
+    meta["label"] = old.label
+    os.replace(job.path, old.path)
+    job.path.with_suffix(".json").unlink()
+    old.path.with_suffix(".json").write_text(json.dumps(meta))
+    return old
+
+
+def test_runs_cached_under_the_old_row_and_integrator_names_are_reused(tiny_box, tmp_path, monkeypatch):
+    jobs = jobs_of(tiny_box, tmp_path)
+    assert [j.row for j in jobs] == ["native-leapfrog", "native-viscel"]
+    assert all('integrator.kind="leapfrog"' in j.sets for j in jobs)
+    olds = []
+    for job in jobs:
+        assert run_job(job)["returncode"] == 0
+        olds.append(cached_as_before(job, tmp_path))
+    assert olds[0].path.name.startswith("tinybox_native-verlet_3Hz_s1_")
+    assert olds[1].path.name.startswith("tinybox_native-viscel_3Hz_s1_") and olds[1].path != jobs[1].path
+    assert not any(j.path.exists() for j in jobs)
+
+    def must_not_run(*args, **kwargs):
+        raise AssertionError("a run cached under the old names ran again")
+    monkeypatch.setattr(validate, "run_timed", must_not_run)
+    log = []
+    metas = [run_job(j, log.append) for j in jobs]
+    assert all(m["cached"] for m in metas), metas
+    assert [m["same_as"] for m in metas] == [o.path.name for o in olds]
+    assert all(j.path.exists() for j in jobs) and all(o.path.exists() for o in olds)
+    assert sum("reused" in x for x in log) == 2, log
+    assert run_job(jobs[0])["cached"]  # and from now on under its own name
+
+
+def test_an_old_name_matches_only_the_run_it_named(tiny_box, tmp_path):
+    (job, _) = jobs_of(tiny_box, tmp_path)
+    run_job(job)
+    old = cached_as_before(job, tmp_path)
+    assert same_run_elsewhere(job, resolved_scene(job)) == old.path
+    # the same row at another step, or with Gear: not that run
+    for x in ("integrator.dt=1e-4", 'integrator.kind="gear"'):
+        other = validate._job(job.case, job.row, job.variant, job.seed, job.engine, [*job.sets, x], tmp_path)
+        assert same_run_elsewhere(other, resolved_scene(other)) is None, x
+    now = resolved_scene(job)
+    stored = json.loads(old.path.with_suffix(".json").read_text())["resolved_scene"]
+    assert stored["integrator"]["kind"] == "verlet" and same_resolution(stored, now)
+    assert stored["integrator"]["kind"] == "verlet"  # the stored resolution is left as it was
+    assert not same_resolution(dict(stored, integrator=dict(stored["integrator"], kind="gear")), now)
+
+
+def test_old_row_names_cover_planted_errors_and_false_alarm_groups():
+    assert old_row_names("native-leapfrog") == ["native-verlet"]
+    assert old_row_names("native-leapfrog+coulomb_half") == ["native-verlet+coulomb_half"]
+    assert old_row_names("native-leapfrog@r3.1") == ["native-verlet@r3.1"]
+    assert old_row_names("native-viscel") == [] and old_row_names("native-viscel+inertia") == []

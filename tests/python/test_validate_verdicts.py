@@ -91,8 +91,8 @@ def test_mutant_overrides_come_from_the_resolved_scene():
     assert mutant_sets(drum, "native-linear", "omega_0.9") == ["drum.omega=0.45"]
     assert mutant_sets(drum, "native-linear", "amplitude_1.8") is None  # a box-only error
     box = SUITES["quick"][1]
-    assert mutant_sets(box, "native-verlet", "amplitude_1.8") == ["shaking.amplitude=1.8"]
-    assert mutant_sets(box, "native-verlet", "inertia") == ["particles.inertia_factor=0.25"]
+    assert mutant_sets(box, "native-leapfrog", "amplitude_1.8") == ["shaking.amplitude=1.8"]
+    assert mutant_sets(box, "native-leapfrog", "inertia") == ["particles.inertia_factor=0.25"]
     assert set(MUTANTS) >= {"wall_friction_big_half", "coulomb_half", "inertia", "damping_double",
                             "wall_friction_off", "amplitude_1.8", "gravity_5pc", "omega_0.9"}
 
@@ -122,14 +122,14 @@ def test_detection_table_lists_missed_errors():
 def test_false_alarm_summary_counts_per_comparison_and_per_repeat():
     res = []
     for rep in range(20):
-        res.append({"case": "box_rise", "row": "native-verlet", "repeat": rep, "variant": "3.2Hz",
+        res.append({"case": "box_rise", "row": "native-leapfrog", "repeat": rep, "variant": "3.2Hz",
                     "observable": "phi_max", "gating": True, "verdict": "different" if rep == 3 else "equivalent"})
-        res.append({"case": "box_rise", "row": "native-verlet", "repeat": rep, "variant": "3.2Hz",
+        res.append({"case": "box_rise", "row": "native-leapfrog", "repeat": rep, "variant": "3.2Hz",
                     "observable": "rose", "gating": True, "verdict": "inconclusive" if rep in (3, 4) else "equivalent"})
     s = false_alarm_summary(res, 20)
-    assert s["per_comparison"]["box_rise 3.2Hz native-verlet phi_max"]["different"] == 1
-    assert s["per_comparison"]["box_rise 3.2Hz native-verlet rose"]["inconclusive"] == 2
-    pair = s["per_pair"]["box_rise native-verlet"]
+    assert s["per_comparison"]["box_rise 3.2Hz native-leapfrog phi_max"]["different"] == 1
+    assert s["per_comparison"]["box_rise 3.2Hz native-leapfrog rose"]["inconclusive"] == 2
+    pair = s["per_pair"]["box_rise native-leapfrog"]
     assert pair == {"repeats": 20, "any_different": 1, "all_equivalent": 18}
 
 

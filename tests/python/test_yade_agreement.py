@@ -1,8 +1,8 @@
 """The native engine and YADE give the same trajectory for the same law:
 YADE's viscoelastic law (contact/viscel.hpp; Ip2_ViscElMat_ViscElMat_ViscElPhys
 + Law2_ScGeom_ViscElPhys_Basic, ks = 0) with the same step. Both integrate with
-the leapfrog (native: two half kicks, velocity Verlet form; YADE: one kick of the
-mid-step velocity), which give the same positions; the native end-of-step
+the leapfrog (native: two half kicks, velocities at the step's end; YADE: one
+kick of the mid-step velocity), which give the same positions; the native end-of-step
 velocity is half a kick away from YADE's mid-step velocity, so velocities are
 compared through the positions only, and angular velocities the same way as
 velocities (w_yade(t + dt/2) = w_native(t) + dt/2 * torque/I: compared at the

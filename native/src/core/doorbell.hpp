@@ -12,8 +12,8 @@
 //     queued behind the spinner on the same core, and each wait then lasts a
 //     time slice;
 //   - yielding the core after 256 looks: 1.2-2.2 s; but beside two unrelated
-//     busy processes a yield hands the slice to them, and thread_probe's
-//     200 000 round trips took over 120 s;
+//     busy processes a yield hands the slice to them, and 200 000 cache-line
+//     round trips between two threads took over 120 s;
 //   - sleeping after 1000 looks (this): 2.3-2.6 s in 7 tries, and the round
 //     trips beside the busy processes 1.7 s;
 //   - sleeping after 200 looks: 1.7-2.1 s, but alone on the cores two threads

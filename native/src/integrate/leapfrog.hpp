@@ -2,8 +2,9 @@
 // Dynamics Simulation" (the paper's Ref. [32]), used by Rapaport (2002) Sec. III:
 //   stage 1:  v += (dt/2) a(t);  r += dt v          -> forces at r(t+dt) with these v
 //   stage 2:  v += (dt/2) a(t+dt)
-// (velocity Verlet). Angular velocities get the two half kicks only: no
-// rotational coordinates are needed. Gravity enters as a constant acceleration.
+// (the steps of LAMMPS's velocity Verlet, fix nve/sphere). Angular velocities
+// get the two half kicks only: no rotational coordinates are needed. Gravity
+// enters as a constant acceleration.
 // Wall particles (Motion != NoMotion) are placed, not integrated. Between two
 // steps the engine runs stage 2 and the next stage 1 as one pass
 // (second_then_first): the same arithmetic, each column touched once.
