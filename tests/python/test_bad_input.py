@@ -8,6 +8,7 @@ tests/bad_scenes/yade/). docs/errors.md describes the messages.
 Each catalogue file starts with `# expect: KEY | FRAGMENT`: the key the message
 must name (`-` for a file that is not TOML; its faulty line carries `# <- here`)
 and a fragment of the reason."""
+import json
 import os
 import re
 import shutil
@@ -291,3 +292,22 @@ def test_the_yade_driver_refuses_verlet_as_the_engine_does(tmp_path):
     assert r.returncode == 2
     assert r.stderr.strip() == "yade_cases: error: " + native.stderr.strip().removeprefix("error: ")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_info_lists_the_registered_laws_and_the_scene_accepts_exactly_those():
+    """`granular info --json` lists the contact laws each scene kind can use
+    (native/src/contact/laws.hpp), and the scene's contact.law key accepts
+    those and refuses any other."""
+    for scene, expect in (("scenes/drum/A.toml", {("rapaport", "normal"), ("linear", "normal"), ("viscel", "normal")}),
+                          ("scenes/box/f3.0_big.toml", {("poeschel_herrmann", "normal"),
+                                                        ("poeschel_herrmann", "literal"), ("viscel", "normal")})):
+        r = granular("info", scene, "--json")
+        assert r.returncode == 0, r.stderr
+        laws = json.loads(r.stdout)["derived"]["contact_laws"]
+        assert {(x["contact.law"], x["contact.damping"]) for x in laws} == expect
+        for law in {name for name, _ in expect}:
+            ok = granular("info", scene, "--set", f'contact.law="{law}"')
+            assert ok.returncode == 0, ok.stderr
+        bad = granular("info", scene, "--set", 'contact.law="hertz"')
+        assert bad.returncode == 2
+        assert "contact.law" in bad.stderr and "hertz" in bad.stderr

@@ -163,6 +163,21 @@ bool mapped_laws_json(const MappingInputs& in, nlohmann::json& d) {
   }
 }
 
+// The registered contact laws this scene kind can use (contact/laws.hpp),
+// each with the contact.law and contact.damping keys that select it.
+template <class L>
+nlohmann::json contact_laws_json(L) {
+  nlohmann::json laws = nlohmann::json::array();
+  for_each_type(L{}, [&](auto tag) {
+    using Law = typename decltype(tag)::type;
+    laws.push_back({{"contact.law", Law::kName},
+                    {"contact.damping", damping_name(DampingOf<Law>::value)},
+                    {"vectorised", Law::kVectorised},
+                    {"range_factor", Law::kRangeFactor}});
+  });
+  return laws;
+}
+
 nlohmann::json info_json(const Loaded& l) {
   auto j = nlohmann::json::parse(l.json);
   nlohmann::json d;
@@ -222,6 +237,9 @@ nlohmann::json info_json(const Loaded& l) {
     d["steps_total"] = std::lround((s.settle + s.duration) / s.dt);
     d["time_step"] = step_json(box_step_rule(s), s.dt);
   }
+  d["contact_laws"] = l.drum ? contact_laws_json(DrumLaws{})
+                   : l.particles ? contact_laws_json(RapaportSceneLaws<MappingInputs>{})
+                                 : contact_laws_json(BoxLaws{});
   j["derived"] = d;
   return j;
 }
