@@ -44,33 +44,33 @@ struct DampingOf<Law, std::void_t<decltype(Law::kDamping)>> : std::integral_cons
 
 inline const char* damping_name(Damping d) { return d == Damping::literal ? "literal" : "normal"; }
 
+// Whether Op<Args...> names a type (the detection idiom).
+template <class, template <class...> class Op, class... Args>
+struct Detected : std::false_type {};
+template <template <class...> class Op, class... Args>
+struct Detected<std::void_t<Op<Args...>>, Op, Args...> : std::true_type {};
+
 // Whether In (the scene's parameters) can set the law: from_rapaport(In) or from_box(In).
-template <class Law, class In, class = void>
-struct FromRapaport : std::false_type {};
 template <class Law, class In>
-struct FromRapaport<Law, In, std::void_t<decltype(Law::from_rapaport(std::declval<const In&>()))>>
-    : std::true_type {};
-template <class Law, class In, class = void>
-struct FromBox : std::false_type {};
+using FromRapaportCall = decltype(Law::from_rapaport(std::declval<const In&>()));
 template <class Law, class In>
-struct FromBox<Law, In, std::void_t<decltype(Law::from_box(std::declval<const In&>()))>> : std::true_type {};
+using FromBoxCall = decltype(Law::from_box(std::declval<const In&>()));
+template <class Law, class In>
+using FromRapaport = Detected<void, FromRapaportCall, Law, In>;
+template <class Law, class In>
+using FromBox = Detected<void, FromBoxCall, Law, In>;
 
 // The laws a scene of Rapaport's particles (3D, parameters In = MappingInputs)
 // can use, and those the shaken box (2D, In = BoxScene) can use.
-template <class In>
-struct RapaportUsable {
+template <template <class, class> class From, class In>
+struct SettableFrom {
   template <class Law>
-  struct Test : std::bool_constant<Law::kInDim && FromRapaport<Law, In>::value> {};
+  struct Test : std::bool_constant<Law::kInDim && From<Law, In>::value> {};
 };
 template <class In>
-using RapaportSceneLaws = Filter<RapaportUsable<In>::template Test, ContactLaws<3>>;
+using RapaportSceneLaws = Filter<SettableFrom<FromRapaport, In>::template Test, ContactLaws<3>>;
 template <class In>
-struct BoxUsable {
-  template <class Law>
-  struct Test : std::bool_constant<Law::kInDim && FromBox<Law, In>::value> {};
-};
-template <class In>
-using BoxSceneLaws = Filter<BoxUsable<In>::template Test, ContactLaws<2>>;
+using BoxSceneLaws = Filter<SettableFrom<FromBox, In>::template Test, ContactLaws<2>>;
 
 // The contact.law keys of a list of laws, each once, in the list's order.
 template <class... L>

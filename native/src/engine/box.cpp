@@ -175,12 +175,7 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
   };
   const long start = begin_run(sim, ctl, {&snap_k, &trace_k}, "shaken-box", [&] { observe(true); });
   Checkpointer checkpoints(ctl);
-  if (out) {
-    out->start_swmr();
-    out->write_xdmf();  // from the start, the description beside the output is this run's
-  }
-  sim.timers.reset();
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = start_loop(sim, out);
   auto last = t0;
   const double n = static_cast<double>(sim.p.size());
   // The steps between two that observe, check or report run in one go
@@ -195,7 +190,7 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
   // The XDMF description beside the output (io/xdmf.hpp) is rewritten after
   // each checkpoint and where the run ends: at its last step, on SIGINT or
   // SIGTERM (Interrupted), or when it stops unstable (UnstableError).
-  try {
+  run_loop(out, progress, [&] {
     for (long k = start; k < total;) {
       const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
       sim.advance(next - k);
@@ -220,20 +215,8 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
         }
       }
     }
-  } catch (...) {
-    if (out) out->write_xdmf();
-    throw;
-  }
-  if (out) out->write_xdmf();
-  if (progress) std::fprintf(stderr, "\n");
-  RunReport r;
-  r.steps = std::max(0L, total - start);
-  r.particles = static_cast<long>(n);
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  r.particle_steps_per_second = r.seconds > 0 ? r.steps * n / r.seconds : 0.0;
-  r.checkpoints = checkpoints.written();
-  r.breakdown = step_breakdown(sim, r.seconds);
-  return r;
+  });
+  return run_report(sim, std::max(0L, total - start), t0, checkpoints.written());
 }
 
 // The scene's choices, one at a time, down to one alternative of BoxSim.

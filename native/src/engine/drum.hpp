@@ -40,16 +40,6 @@ DrumSim make_drum(const DrumScene& s);
 // given edges along y; NaN for an empty slice.
 std::vector<double> axial_small_fraction(const ParticleStore<3>& p, const std::vector<double>& edges);
 
-struct RunReport {
-  long steps = 0;
-  long particles = 0;
-  double seconds = 0.0;
-  double particle_steps_per_second = 0.0;
-  StepBreakdown breakdown;  // where the time went (engine/timers.hpp; format_breakdown prints it)
-  long checkpoints = 0;  // checkpoints written
-  long neighbor_builds = 0;  // neighbour-list builds in the timed steps (bench)
-};
-
 // Runs s.rotations rotations, writing frames and profiles to `out` (may be null).
 // `progress` = show a progress line on stderr. ctl: checkpoints, and the state
 // to resume from (then `out` must have been opened for resuming).

@@ -131,12 +131,7 @@ RunReport run_impl(const ParticlesScene& s, Sim& sim, H5Output* out, bool progre
     }
   };
   observe(false);
-  if (out) {
-    out->start_swmr();
-    out->write_xdmf();  // from the start, the description beside the output is this run's
-  }
-  sim.timers.reset();
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = start_loop(sim, out);
   auto last_print = t0;
   const long n = static_cast<long>(sim.p.size());
   // The steps between two that observe, check or report run in one go.
@@ -145,7 +140,7 @@ RunReport run_impl(const ParticlesScene& s, Sim& sim, H5Output* out, bool progre
   };
   // The XDMF description (io/xdmf.hpp) is rewritten where the run ends: at its
   // last step, on SIGINT or SIGTERM, or when it stops unstable.
-  try {
+  run_loop(out, progress, [&] {
     for (long k = 0; k < total;) {
       const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
       sim.advance(next - k);
@@ -171,19 +166,8 @@ RunReport run_impl(const ParticlesScene& s, Sim& sim, H5Output* out, bool progre
         }
       }
     }
-  } catch (...) {
-    if (out) out->write_xdmf();
-    throw;
-  }
-  if (out) out->write_xdmf();
-  if (progress) std::fprintf(stderr, "\n");
-  RunReport r;
-  r.steps = total;
-  r.particles = n;
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(r.steps) * n / r.seconds : 0.0;
-  r.breakdown = step_breakdown(sim, r.seconds);
-  return r;
+  });
+  return run_report(sim, total, t0);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #pragma once
 #include <chrono>
 #include <csignal>
+#include <cstdio>
 #include <cstdint>
 #include <initializer_list>
 #include <stdexcept>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "engine/checkpoint.hpp"
+#include "engine/timers.hpp"
 #include "io/checkpoint_file.hpp"
 #include "io/h5_output.hpp"
 
@@ -68,6 +70,59 @@ long begin_run(Sim& sim, const RunControl& ctl, std::initializer_list<long*> cou
   auto saved = ctl.resume->counters.begin();
   for (long* c : counters) *c = *saved++;
   return sim.step_count;
+}
+
+struct RunReport {
+  long steps = 0;
+  long particles = 0;
+  double seconds = 0.0;
+  double particle_steps_per_second = 0.0;
+  StepBreakdown breakdown;  // where the time went (engine/timers.hpp; format_breakdown prints it)
+  long checkpoints = 0;  // checkpoints written
+  long neighbor_builds = 0;  // neighbour-list builds in the timed steps (bench)
+};
+
+// Where a run's timed loop begins: the output opened to readers while it is
+// written (SWMR) with its XDMF description from the start, the phase timers
+// zeroed. Returns the loop's start time.
+template <class Sim>
+std::chrono::steady_clock::time_point start_loop(Sim& sim, H5Output* out) {
+  if (out) {
+    out->start_swmr();
+    out->write_xdmf();  // from the start, the description beside the output is this run's
+  }
+  sim.timers.reset();
+  return std::chrono::steady_clock::now();
+}
+
+// A run's loop, and where it ends: the XDMF description beside the output
+// (io/xdmf.hpp) is rewritten at the last step and on the way out of an
+// interruption (SIGINT, SIGTERM: Interrupted) or an instability
+// (UnstableError); the progress line is closed.
+template <class Loop>
+void run_loop(H5Output* out, bool progress, Loop&& loop) {
+  try {
+    loop();
+  } catch (...) {
+    if (out) out->write_xdmf();
+    throw;
+  }
+  if (out) out->write_xdmf();
+  if (progress) std::fprintf(stderr, "\n");
+}
+
+// The report of a run of `steps` steps begun at t0 (now ended).
+template <class Sim>
+RunReport run_report(const Sim& sim, long steps, std::chrono::steady_clock::time_point t0, long checkpoints = 0) {
+  RunReport r;
+  const long n = static_cast<long>(sim.p.size());
+  r.steps = steps;
+  r.particles = n;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(r.steps) * n / r.seconds : 0.0;
+  r.checkpoints = checkpoints;
+  r.breakdown = step_breakdown(sim, r.seconds);
+  return r;
 }
 
 class Checkpointer {

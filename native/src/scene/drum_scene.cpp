@@ -161,13 +161,7 @@ DrumScene read_fields(SceneFile& f) {
                                 " time units, which round to 0 steps of integrator.dt " + number_text(s.dt) +
                                 ": nothing would be simulated");
   check_fits(f, s);  // builds the particles
-  {
-    try {
-      check_law_settable(s.law, mapping_inputs(s));
-    } catch (const MappingError& e) {
-      f.fail("contact.law", "\"" + s.law + "\" is mapped from Rapaport's law, which cannot be done here: " + e.what());
-    }
-  }
+  check_law_settable(f, s.law, mapping_inputs(s));
   return s;
 }
 

@@ -68,18 +68,9 @@ LinearNormal linear_matching(const Collision& c) {
 }
 
 MappingInputs mapping_inputs(const DrumScene& s) {
-  MappingInputs in;
+  MappingInputs in = MappingInputs::parameters_of(s);
   in.d[0] = s.small_diameter - 0.5 * s.diameter_spread;
   in.d[1] = s.big_diameter - 0.5 * s.diameter_spread;
-  in.wall_diameter = s.wall_diameter;
-  in.gamma_n = s.gamma_n;
-  in.mu_max = s.mu_max;
-  in.gamma_s_bb = s.gamma_s_bb;
-  in.gamma_s_ss = s.gamma_s_ss;
-  in.gamma_s_bw = s.gamma_s_bw;
-  in.gamma_s_sw = s.gamma_s_sw;
-  in.impact_speed = s.impact_speed;
-  in.gravity = s.gravity;
   in.load_height = 0.5 * s.diameter;
   return in;
 }
@@ -187,6 +178,14 @@ ViscElMapping map_linear_to_viscel(const MappingInputs& in, const LinearMapping&
 void check_law_settable(const std::string& law, const MappingInputs& in) {
   with_law(RapaportSceneLaws<MappingInputs>{}, law, Damping::normal,
            [&](auto tag) { (void)decltype(tag)::type::from_rapaport(in); });
+}
+
+void check_law_settable(SceneFile& f, const std::string& law, const MappingInputs& in) {
+  try {
+    check_law_settable(law, in);
+  } catch (const MappingError& e) {
+    f.fail("contact.law", "\"" + law + "\" is mapped from Rapaport's law, which cannot be done here: " + e.what());
+  }
 }
 
 }  // namespace granular

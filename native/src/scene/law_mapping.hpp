@@ -82,6 +82,22 @@ struct MappingInputs {
   RapaportLaw<3> rapaport() const {
     return RapaportLaw<3>::from_paper(gamma_n, gamma_s_bb, gamma_s_ss, gamma_s_bw, gamma_s_sw, mu_max);
   }
+  // Rapaport's parameters as a scene of his particles (DrumScene,
+  // ParticlesScene) names them; the diameters and the load are each scene's.
+  template <class Scene>
+  static MappingInputs parameters_of(const Scene& s) {
+    MappingInputs in;
+    in.wall_diameter = s.wall_diameter;
+    in.gamma_n = s.gamma_n;
+    in.mu_max = s.mu_max;
+    in.gamma_s_bb = s.gamma_s_bb;
+    in.gamma_s_ss = s.gamma_s_ss;
+    in.gamma_s_bw = s.gamma_s_bw;
+    in.gamma_s_sw = s.gamma_s_sw;
+    in.impact_speed = s.impact_speed;
+    in.gravity = s.gravity;
+    return in;
+  }
 };
 
 // The drum's: each species' mean diameter d - spread/2, the load of a column
@@ -120,6 +136,9 @@ ViscElMapping map_linear_to_viscel(const MappingInputs& in, const LinearMapping&
 // parameters (its from_rapaport, contact/laws.hpp) and throws MappingError if
 // that cannot be done (a mapped law the scene's parameters cannot give).
 void check_law_settable(const std::string& law, const MappingInputs& in);
+// The same for a scene being read: a law that cannot be set fails the scene
+// at contact.law with the reason.
+void check_law_settable(SceneFile& f, const std::string& law, const MappingInputs& in);
 inline ViscElMapping map_linear_to_viscel(const DrumScene& s, const LinearMapping& lin) {
   return map_linear_to_viscel(mapping_inputs(s), lin);
 }

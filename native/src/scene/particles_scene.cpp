@@ -462,13 +462,7 @@ ParticlesScene read_fields(SceneFile& f) {
   if (s.steps_per(s.duration) < 1)
     f.fail("run.duration", number_text(s.duration) + " time units round to 0 steps of integrator.dt " +
                                number_text(s.dt) + ": nothing would be simulated");
-  {
-    try {
-      check_law_settable(s.law, mapping_inputs(s));
-    } catch (const MappingError& e) {
-      f.fail("contact.law", "\"" + s.law + "\" is mapped from Rapaport's law, which cannot be done here: " + e.what());
-    }
-  }
+  check_law_settable(f, s.law, mapping_inputs(s));
   return s;
 }
 
@@ -493,7 +487,7 @@ ParticleStore<3> particles_store(const ParticlesScene& s) {
 }
 
 MappingInputs mapping_inputs(const ParticlesScene& s) {
-  MappingInputs in;
+  MappingInputs in = MappingInputs::parameters_of(s);
   double sum[2] = {0, 0};
   long count[2] = {0, 0};
   for (const auto& q : s.spheres) {
@@ -504,15 +498,6 @@ MappingInputs mapping_inputs(const ParticlesScene& s) {
     const int b = count[a] > 0 ? a : 1 - a;  // a species with no sphere takes the other's
     in.d[a] = sum[b] / static_cast<double>(count[b]);
   }
-  in.wall_diameter = s.wall_diameter;
-  in.gamma_n = s.gamma_n;
-  in.mu_max = s.mu_max;
-  in.gamma_s_bb = s.gamma_s_bb;
-  in.gamma_s_ss = s.gamma_s_ss;
-  in.gamma_s_bw = s.gamma_s_bw;
-  in.gamma_s_sw = s.gamma_s_sw;
-  in.impact_speed = s.impact_speed;
-  in.gravity = s.gravity;
   in.load_height = s.height;
   return in;
 }
