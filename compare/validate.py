@@ -20,6 +20,8 @@ import hashlib
 import json
 import math
 import os
+import resource
+import signal
 import subprocess
 import tempfile
 import threading
@@ -455,25 +457,48 @@ def run_job(job, log=print):
 
 def run_timed(cmd, timeout):
     """Runs cmd; returns (exit status, the tail of its stderr, CPU seconds).
+
+    ``timeout`` is in CPU seconds, for each process of the run (RLIMIT_CPU,
+    inherited by the engine the driver starts): a run on a machine that gives
+    it a quarter of a core (the full suite at nice 19 beside other jobs) is
+    not cut short for being slow, only for computing too long. A run that
+    hangs without computing is stopped after ten times ``timeout`` of
+    wall-clock time. Either way, and after a normal end, every process of the
+    run's session goes, so no engine is left running without its driver.
     The CPU seconds are the process's own user+system time and its reaped
     children's (os.wait4), so a run's speed does not depend on what else the
     machine ran beside it, as wall-clock time would."""
+    limit = max(1, int(math.ceil(timeout)))
+
+    def kill_session():
+        try:
+            os.killpg(p.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+
     with tempfile.TemporaryFile("w+") as errf:
-        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=errf, text=True, cwd=ROOT)
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=errf, text=True, cwd=ROOT,
+                             start_new_session=True)
+        # Set before the driver starts its engine (it is still importing).
+        resource.prlimit(p.pid, resource.RLIMIT_CPU, (limit, limit + 5))
         timed_out = threading.Event()
-        timer = threading.Timer(timeout, lambda: (timed_out.set(), p.kill()))
+        timer = threading.Timer(10 * timeout, lambda: (timed_out.set(), kill_session()))
         timer.start()
         try:
             _, status, ru = os.wait4(p.pid, 0)
         finally:
             timer.cancel()
+            kill_session()
         p.returncode = os.waitstatus_to_exitcode(status)  # reaped here; tell Popen
         errf.seek(0)
         err = errf.read()[-2000:]
     rc = p.returncode
+    cpu = ru.ru_utime + ru.ru_stime
     if timed_out.is_set():
-        rc, err = -1, f"timed out after {timeout:.0f} s"
-    return rc, err, ru.ru_utime + ru.ru_stime
+        rc, err = -1, f"hung: no end after {10 * timeout:.0f} s of wall-clock time"
+    elif rc != 0 and cpu >= limit - 1:  # the engine, or the driver with it, reached RLIMIT_CPU
+        rc, err = -1, f"timed out after {timeout:.0f} CPU seconds"
+    return rc, err, cpu
 
 
 def run_all(jobs, lanes=2, log=print):

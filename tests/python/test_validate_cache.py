@@ -189,3 +189,36 @@ def test_old_row_names_cover_planted_errors_and_false_alarm_groups():
     assert old_row_names("native-leapfrog+coulomb_half") == ["native-verlet+coulomb_half"]
     assert old_row_names("native-leapfrog@r3.1") == ["native-verlet@r3.1"]
     assert old_row_names("native-viscel") == [] and old_row_names("native-viscel+inertia") == []
+
+
+def test_a_run_is_limited_in_cpu_time_and_leaves_no_process_behind(tmp_path):
+    """compare.validate.run_timed: the limit is CPU time (a slow machine does
+    not cut a run short, a run that computes too long is stopped), and the
+    run's whole session goes when it ends, so an engine started by a driver
+    cannot outlive it."""
+    import os
+    import time
+    from compare.validate import run_timed
+
+    spin = [sys.executable, "-c", "while True: pass"]
+    t0 = time.monotonic()
+    rc, err, cpu = run_timed(spin, 1.0)
+    assert rc == -1 and "CPU seconds" in err, err
+    assert 0.9 <= cpu and time.monotonic() - t0 < 8.0
+
+    # Sleeping costs no CPU: within the limit, the wall-clock guard (10 x) stops a hang.
+    rc, err, cpu = run_timed(["sleep", "30"], 0.2)
+    assert rc == -1 and "hung" in err, err
+
+    # A child left running by the driver goes with it.
+    pidfile = tmp_path / "child.pid"
+    rc, err, cpu = run_timed(["sh", "-c", f"sleep 60 & echo $! > {pidfile}"], 60.0)
+    assert rc == 0, err
+    pid = int(pidfile.read_text())
+    time.sleep(0.2)
+    try:
+        os.kill(pid, 0)
+        alive = open(f"/proc/{pid}/stat").read().split()[2] != "Z"
+    except ProcessLookupError:
+        alive = False
+    assert not alive, "the driver's child outlived the run"
