@@ -463,14 +463,15 @@ def run_timed(cmd, timeout):
     it a quarter of a core (the full suite at nice 19 beside other jobs) is
     not cut short for being slow, only for computing too long. A run that
     hangs without computing is stopped after ten times ``timeout`` of
-    wall-clock time. Either way, and after a normal end, every process of the
-    run's session goes, so no engine is left running without its driver.
+    wall-clock time. Either way, and after a normal end, every process the run
+    started goes (it runs in a process group of its own), so no engine is
+    left running without its driver.
     The CPU seconds are the process's own user+system time and its reaped
     children's (os.wait4), so a run's speed does not depend on what else the
     machine ran beside it, as wall-clock time would."""
     limit = max(1, int(math.ceil(timeout)))
 
-    def kill_session():
+    def kill_group():
         try:
             os.killpg(p.pid, signal.SIGKILL)
         except (ProcessLookupError, PermissionError):
@@ -482,13 +483,13 @@ def run_timed(cmd, timeout):
         # Set before the driver starts its engine (it is still importing).
         resource.prlimit(p.pid, resource.RLIMIT_CPU, (limit, limit + 5))
         timed_out = threading.Event()
-        timer = threading.Timer(10 * timeout, lambda: (timed_out.set(), kill_session()))
+        timer = threading.Timer(10 * timeout, lambda: (timed_out.set(), kill_group()))
         timer.start()
         try:
             _, status, ru = os.wait4(p.pid, 0)
         finally:
             timer.cancel()
-            kill_session()
+            kill_group()
         p.returncode = os.waitstatus_to_exitcode(status)  # reaped here; tell Popen
         errf.seek(0)
         err = errf.read()[-2000:]

@@ -193,9 +193,9 @@ def test_old_row_names_cover_planted_errors_and_false_alarm_groups():
 
 def test_a_run_is_limited_in_cpu_time_and_leaves_no_process_behind(tmp_path):
     """compare.validate.run_timed: the limit is CPU time (a slow machine does
-    not cut a run short, a run that computes too long is stopped), and the
-    run's whole session goes when it ends, so an engine started by a driver
-    cannot outlive it."""
+    not cut a run short, a run that computes too long is stopped), and every
+    process the run started goes when it ends, so an engine started by a
+    driver cannot outlive it."""
     import os
     import time
     from compare.validate import run_timed
