@@ -184,13 +184,16 @@ def main(argv=None):
         return 0
 
     if args.command == "validate":
-        from .validate import MUTANTS, design_table, validate
+        from .validate import MUTANTS, SUITE_PASS, design_table, pass_probability, validate
         cases = args.cases.split(",") if args.cases else None
         if args.design:
-            for d in design_table(args.suite, cases):
-                print(f"{d['case']:12s} {d['variant']:6s} {d['observable']:20s} margin {d['margin']:<5g} "
+            table = design_table(args.suite, cases)
+            for d in table:
+                print(f"{d['case']:12s} {d['variant']:6s} {d['pair']:32s} {d['observable']:20s} margin {d['margin']:<5g} "
                       f"spread {d['spread']!s:6s} runs needed {d['required']!s:5s} runs {d['n']:3d} "
-                      f"power {d['power']:.2f}  {'gating' if d['gating'] else 'reported'}")
+                      f"power {d['power']:.3f}  {'gating' if d['gating'] else 'reported'}")
+            print(f"a correct engine passes every gating comparison with probability "
+                  f"{pass_probability(table):.3f} (designed for at least {SUITE_PASS})")
             return 0
         if args.markdown:
             import json as _json

@@ -208,12 +208,17 @@ def write_report(report, outdir, name="report"):
                        f"{_fmt(t['below_fraction'])}</td><td>{esc(t['reason'])}</td></tr>")
         out.append("</table>")
     if report.get("design"):
-        out.append("<h2>Sample sizes</h2><table id='design'><tr><th>case</th><th>variant</th><th>observable</th>"
+        out.append("<h2>Sample sizes</h2>")
+        if report.get("pass_probability") is not None:
+            out.append(f"<p>Engines that are truly the same pass every gating comparison with probability "
+                       f"{_fmt(report['pass_probability'])} at the designed spreads.</p>")
+        out.append("<table id='design'><tr><th>case</th><th>variant</th><th>pair</th><th>observable</th>"
                    "<th>margin</th><th>designed spread (sd of paired differences, or fraction)</th>"
                    "<th>runs for power 0.8</th><th>runs</th><th>power</th><th>role</th></tr>")
         for d in report["design"]:
             out.append(f"<tr class='{'pass' if d['gating'] else 'info'}'><td>{esc(d['case'])}</td>"
-                       f"<td>{esc(d['variant'])}</td><td>{esc(d['observable'])}</td><td>{_fmt(d['margin'])}</td>"
+                       f"<td>{esc(d['variant'])}</td><td>{esc(d.get('pair', ''))}</td><td>{esc(d['observable'])}</td>"
+                       f"<td>{_fmt(d['margin'])}</td>"
                        f"<td>{_fmt(d['spread'])}</td><td>{_fmt(d['required'])}</td><td>{d['n']}</td>"
                        f"<td>{_fmt(d['power'])}</td><td>{esc(d['why'])}</td></tr>")
         out.append("</table>")

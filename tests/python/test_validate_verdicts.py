@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from compare import validate
-from compare.validate import (MARGINS, MUTANTS, SUITES, Case, compare_rows, design_of, design_power,
+from compare.validate import (MARGINS, MUTANTS, SUITES, Case, compare_rows, design_of, design_power, design_table,
                               detection_table, false_alarm_summary, mutant_sets, required_runs)
 
 
@@ -76,8 +76,7 @@ def test_every_suite_observable_has_a_margin_and_a_design():
 
 def test_the_quick_suite_gates_the_three_headline_observables():
     quick = {c.name: c for c in SUITES["quick"]}
-    gating = {(c.name, v, k) for c in quick.values() for v, ks in c.compared.items() for k in ks
-              if design_of(c, v, k, len(c.seeds))["gating"]}
+    gating = {(d["case"], d["variant"], d["observable"]) for d in design_table("quick") if d["gating"]}
     assert ("drum_short", "", "slope_deg") in gating
     assert ("drum_short", "", "bands_final") in gating
     # the rise: none below the threshold (gating), and every engine's own threshold test (gating)
@@ -134,10 +133,38 @@ def test_false_alarm_summary_counts_per_comparison_and_per_repeat():
 
 
 def test_false_alarm_seeds_are_fresh_and_disjoint():
-    case = SUITES["quick"][0]
-    seen = set(case.seeds)
-    for rep in range(20):
-        for g in (0, 1):
-            s = set(validate.false_alarm_seeds(case, rep, g))
-            assert len(s) == len(case.seeds) and not (s & seen)
-            seen |= s
+    for case in SUITES["quick"]:
+        for variant, _ in case.variants():
+            seen = {s for v, _ in case.variants() for e in (None, *case.engine_seeds) for s in case.seeds_of(v, e)}
+            for rep in range(20):
+                for g in (0, 1):
+                    s = set(validate.false_alarm_seeds(case, variant, rep, g))
+                    assert len(s) == len(case.seeds_of(variant)) and not (s & seen)
+                    seen |= s
+
+
+def test_seeds_per_variant_and_engine():
+    box = Case("b", "box", "scenes/box/f3.0_big.toml", [], [1, 2, 3], ["native-leapfrog", "lammps", "native-viscel", "yade"],
+               variant_seeds={"3.2Hz": [1, 2, 3, 4, 5]}, engine_seeds={"yade": [1, 2]})
+    assert box.seeds_of("2.6Hz", "native") == [1, 2, 3]
+    assert box.seeds_of("3.2Hz", "native") == [1, 2, 3, 4, 5]
+    assert box.seeds_of("3.2Hz", "yade") == [1, 2]
+    assert box.paired_runs("3.2Hz", "native-leapfrog", "lammps") == 5
+    assert box.paired_runs("3.2Hz", "native-viscel", "yade") == 2
+    assert box.paired_runs("2.6Hz", "native-viscel", "yade") == 2
+
+
+def test_the_quick_suite_passes_a_correct_engine_reliably():
+    # A failed CI run must mean a difference, not bad luck: at the designed
+    # spreads, engines that are truly the same pass every gating comparison
+    # with probability SUITE_PASS or more.
+    table = design_table("quick")
+    assert validate.pass_probability(table) >= validate.SUITE_PASS
+    # the sample size of each pair is the seeds both its rows run
+    top = {d["pair"]: d for d in table if d["variant"] == "3.2Hz" and d["observable"] == "top_time_s"}
+    assert top["native-leapfrog vs lammps"]["n"] == 20 and top["native-leapfrog vs lammps"]["gating"]
+
+
+def test_pass_probability_is_the_product_of_the_gating_powers():
+    table = [{"gating": True, "power": 0.9}, {"gating": True, "power": 0.5}, {"gating": False, "power": 0.1}]
+    assert validate.pass_probability(table) == pytest.approx(0.45)
