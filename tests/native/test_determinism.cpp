@@ -27,9 +27,8 @@ std::vector<double> run_small_drum(int threads, std::uint64_t seed, int stall_th
   std::vector<double> out;
   std::visit(
       [&](auto& v) {
-        v.stall_thread = stall_thread;
-        v.stall_for = std::chrono::microseconds(stall_us);
-        if (steal >= 0) v.steal_choice().fix(steal == 1);
+        v.team().stall_for_tests(stall_thread, std::chrono::microseconds(stall_us));
+        if (steal >= 0) v.team().steal_choice().fix(steal == 1);
         v.timers.reset();
         for (int k = 0; k < 600; ++k) v.step();
         if (taken) *taken = v.timers.tails_taken;
@@ -62,7 +61,7 @@ TEST(Determinism, SeedMatters) {
 
 // The last rows of each thread's block are tail tasks that whichever thread
 // is free first runs, each into a buffer of its own summed in a fixed order
-// (engine/simulation.hpp, run_tails). Who ran them must not change a bit:
+// (engine/parallel/tail_tasks.hpp). Who ran them must not change a bit:
 // with one thread stalled at every step the other runs its tasks, and the
 // run is bitwise the one without the stall. A task that wrote its own rows
 // straight into the store, or a sum in the order the tasks ran, fails it.

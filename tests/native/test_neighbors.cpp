@@ -271,7 +271,7 @@ TEST(Neighbors, TwoThreadBlocksBalanceWork) {
 }
 
 // The rows a thread evaluates before the other threads have moved their
-// particles (NeighborList::own_end, engine/simulation.hpp's Gate) read only
+// particles (NeighborList::own_end, engine/parallel/thread_team.hpp's Gate) read only
 // its own block: a row before own_end(t) that listed a particle of another
 // block would read a position that thread may still be writing. And
 // own_end(t) is the first row that does read another block, so the overlap is

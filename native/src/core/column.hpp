@@ -7,7 +7,7 @@
 // and every block boundary a multiple of kLineParticles
 // (neighbor/neighbor_list.hpp, balance), no line of a column holds two
 // threads' particles. The same holds for the buffers one thread writes and
-// another reads (the ghost and tail-task buffers, engine/simulation.hpp):
+// another reads (the ghost and tail-task buffers, engine/parallel/ghost_forces.hpp):
 // each starts on a line of its own, so two never share one.
 #pragma once
 #include <cstddef>

@@ -1,7 +1,7 @@
 // Waiting for a number another thread publishes: spin a little, then sleep
 // until the publisher rings.
 //
-// Within a step the threads meet at numbers they publish (engine/simulation.hpp,
+// Within a step the threads meet at numbers they publish (engine/parallel/thread_team.hpp,
 // Done), a few microseconds apart when each thread has a core. A waiter spins
 // for about as long as libgomp's waiting threads do in this program
 // (app/openmp_wait.hpp: GOMP_SPINCOUNT=1000, some 30 microseconds here), then

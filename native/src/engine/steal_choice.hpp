@@ -1,5 +1,5 @@
 // Whether a thread that has finished its block takes the other blocks' tail
-// tasks (engine/simulation.hpp, run_tails), chosen by timing both.
+// tasks (engine/parallel/tail_tasks.hpp), chosen by timing both.
 //
 // Taking them evens the threads out when one core runs slower for a while
 // (10-27 % on the box; docs/speed_accuracy.md, "Tail tasks"). But a task taken

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <string>
 
+#include "engine/bare_kernel.hpp"
+
 namespace granular {
 
 enum class Phase { integrate, neighbor, pairs, walls, observe, count };
@@ -25,7 +27,7 @@ class PhaseTimers {
     tails_taken = 0;
     steal_windows = steal_windows_stealing = 0;
   }
-  // Tail tasks run by a thread other than their block's owner (engine/simulation.hpp).
+  // Tail tasks run by a thread other than their block's owner (engine/parallel/tail_tasks.hpp).
   long tails_taken = 0;
   // Windows timed for the choice to take them (engine/steal_choice.hpp), and
   // those in which they were taken.
@@ -33,6 +35,31 @@ class PhaseTimers {
 
  private:
   std::array<Clock::duration, static_cast<int>(Phase::count)> total_{};
+};
+
+// One thread's stopwatch over the phases of its steps: each lap adds the
+// time since the last to the phase it names. The sums stay in the stopwatch
+// (on the thread's stack, not on a line the other threads read) until
+// add_to(). A stopwatch that is off reads no clock: in a parallel region only
+// the master's runs, and its laps are the step's figures.
+class PhaseLaps {
+ public:
+  explicit PhaseLaps(bool on) : on_(on), last_(on ? PhaseTimers::Clock::now() : PhaseTimers::Clock::time_point{}) {}
+  void lap(Phase ph) {
+    if (!on_) return;
+    const auto now = PhaseTimers::Clock::now();
+    sums_[static_cast<int>(ph)] += now - last_;
+    last_ = now;
+  }
+  void add_to(PhaseTimers& timers) const {
+    if (!on_) return;
+    for (int k = 0; k < static_cast<int>(Phase::count); ++k) timers.add(static_cast<Phase>(k), sums_[k]);
+  }
+
+ private:
+  bool on_;
+  PhaseTimers::Clock::time_point last_;
+  std::array<PhaseTimers::Clock::duration, static_cast<int>(Phase::count)> sums_{};
 };
 
 class ScopedPhase {
@@ -48,7 +75,7 @@ class ScopedPhase {
 
 // Where the time of a run went: seconds per phase, the neighbour list's work
 // and, for a timed stretch (bench), the pair loop beside a bare kernel over a
-// fixed contact list (Simulation::bare_kernel; contacts counted at the end).
+// fixed contact list (engine/bare_kernel.hpp; contacts counted at the end).
 struct StepBreakdown {
   std::array<double, static_cast<int>(Phase::count)> seconds{};
   double total_seconds = 0.0;
@@ -79,7 +106,7 @@ StepBreakdown step_breakdown(const Sim& sim, double total_seconds, long steps = 
     b.tails_taken_per_step = static_cast<double>(sim.timers.tails_taken) / static_cast<double>(steps);
     b.steal_windows = sim.timers.steal_windows;
     b.steal_windows_stealing = sim.timers.steal_windows_stealing;
-    const auto [contacts, bare_ns] = sim.bare_kernel();
+    const auto [contacts, bare_ns] = bare_kernel(sim);
     if (contacts > 0) {
       b.contacts = contacts;
       b.pair_loop_ns = 1e9 * b.seconds[static_cast<int>(Phase::pairs)] / (static_cast<double>(steps) * contacts);

@@ -55,6 +55,16 @@ struct DriftStats {
   }
   double disp_bound() const { return std::sqrt(max_disp2) + std::sqrt(next_disp2); }
 
+  // Adds another thread's statistics (the largest step, the two largest
+  // displacements of both, the fast particles counted). The names of the
+  // fast particles stay in each thread's buffer.
+  void combine(const DriftStats& s) {
+    if (!(s.max_step2 <= max_step2)) max_step2 = s.max_step2;
+    if (!(s.next_disp2 <= next_disp2)) push_disp(s.next_disp2);
+    if (!(s.max_disp2 <= next_disp2)) push_disp(s.max_disp2);
+    n_fast += s.n_fast;
+  }
+
   // Particle i. s2: squared displacement in this step; x, ref: position now
   // and at the last build. Written with !(a <= b) so that a NaN makes the
   // statistics NaN.

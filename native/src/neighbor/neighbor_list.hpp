@@ -44,7 +44,7 @@ class NeighborList {
   // Tail tasks. The last rows of each block are cut into kTails tasks of
   // kTailPercent of the block's expected work each. The owner evaluates them
   // after the rest of its block, and a thread that has finished its own block
-  // takes the other blocks' tasks from the back (engine/simulation.hpp): a
+  // takes the other blocks' tasks from the back (engine/parallel/tail_tasks.hpp): a
   // core that runs slower for a while (the speed of each of this machine's
   // virtual cores drifts by up to a third, independently) then leaves less of
   // the step to wait for. A task writes all its forces, its own particles'
