@@ -289,8 +289,8 @@ void check_device(const RunOptions& o) {
   if (!why.empty()) throw UsageError("--device gpu: " + why + "; run on the CPU with --device cpu");
   throw UsageError("--device gpu: runs on the GPU write no output (docs/gpu.md); run on the CPU with --device cpu");
 #else
-  throw UsageError("--device gpu: this granular was built without CUDA (no CUDA compiler was found when it was "
-                   "configured, docs/gpu.md); run on the CPU with --device cpu");
+  throw UsageError("--device gpu: this granular was built without CUDA (docs/gpu.md); run on the CPU with "
+                   "--device cpu");
 #endif
 }
 
