@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 work="${2:-build-fuzz/work}"
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPython3_EXECUTABLE=/usr/bin/python3 \
   -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DGRANULAR_SANITIZE=address,undefined \
-  -DGRANULAR_FUZZ=ON >/dev/null
+  -DGRANULAR_FUZZ=ON -DGRANULAR_CUDA=OFF >/dev/null
 cmake --build build-fuzz -j"$(nproc)" --target scene_fuzzer
 mkdir -p "$work/corpus"
 if [ "${1:-}" = merge ]; then

@@ -6,7 +6,7 @@ the software as it is.
     names one of its headings (GitHub's slugs).
 (b) Every path of the form docs/..., compare/..., native/..., tests/...,
     scripts/... or scenes/... that README.md, docs/*.md or a code comment
-    (.py, .hpp, .cpp, .h, .sh, .toml, CMakeLists.txt) mentions exists; glob
+    (.py, .hpp, .cpp, .h, .cu, .sh, .toml, CMakeLists.txt) mentions exists; glob
     patterns (scenes/drum/*.toml) and {a,b} alternatives match something;
     a section named after it (docs/X.md, "Section") begins a heading of X.
 (c) No text anywhere in the project's documents, code and scripts speaks of
@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 # Top-level folders whose text files are checked by (b), in comments, and (c).
 CODE_DIRS = ["compare", "native", "scripts", "tests", "lammps_cases", "yade_cases", "scenes", ".ci"]
-CODE_SUFFIXES = {".py", ".hpp", ".cpp", ".h", ".sh", ".toml", ".in"}
+CODE_SUFFIXES = {".py", ".hpp", ".cpp", ".h", ".cu", ".sh", ".toml", ".in"}
 # Inputs, not text: the fuzzer's corpus and the deliberately broken scenes.
 SKIP_PARTS = {"corpus", "__pycache__"}
 
@@ -178,7 +178,7 @@ def comments(path: Path) -> str:
         except SyntaxError:
             pass
         return "\n".join(parts)
-    if path.suffix in (".hpp", ".cpp", ".h", ".in"):
+    if path.suffix in (".hpp", ".cpp", ".h", ".cu", ".in"):
         parts = re.findall(r"//[^\n]*", src) + re.findall(r"/\*.*?\*/", src, flags=re.S)
         return "\n".join(parts)
     if path.suffix == ".md":

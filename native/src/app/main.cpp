@@ -1,6 +1,6 @@
 // granular: the native engine's command-line program.
 //   granular run SCENE [-o OUT.h5] [--force | --resume] [--set key=value]... [--threads N]
-//                [--checkpoint-every MINUTES] [--checkpoint-steps N]
+//                [--checkpoint-every MINUTES] [--checkpoint-steps N] [--device cpu|gpu]
 //   granular init SCENE [-o INIT.h5] [--force] [--set key=value]...
 //   granular info SCENE [--set key=value]... [--json]
 //   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S] [--repeat K]
@@ -33,6 +33,7 @@
 #include "engine/drum.hpp"
 #include "engine/particles.hpp"
 #include "engine/run_control.hpp"
+#include "gpu/drum_gpu.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
 #include "scene/step_rule.hpp"
@@ -274,7 +275,24 @@ struct RunOptions {
   bool threads_given = false;
   double checkpoint_minutes = 10.0;
   long checkpoint_steps = 0;
+  std::string device = "cpu";
 };
+
+// --device gpu (docs/gpu.md): refused, with the reason, before anything is
+// written. The GPU path's drum step is built and tested (with CUDA, its
+// kernels are in this program), but a run on it writes no output, so a run
+// is refused even where a GPU is visible.
+void check_device(const RunOptions& o) {
+  if (o.device != "gpu") return;
+#if defined(GRANULAR_HAVE_CUDA)
+  const std::string why = gpu::cuda_unavailable();
+  if (!why.empty()) throw UsageError("--device gpu: " + why + "; run on the CPU with --device cpu");
+  throw UsageError("--device gpu: runs on the GPU write no output (docs/gpu.md); run on the CPU with --device cpu");
+#else
+  throw UsageError("--device gpu: this granular was built without CUDA (docs/gpu.md); run on the CPU with "
+                   "--device cpu");
+#endif
+}
 
 // Keys of the resolved scene, flattened to "section.key", with their values.
 void flatten(const nlohmann::json& j, const std::string& prefix, std::map<std::string, std::string>& out) {
@@ -640,6 +658,9 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   run->add_option("--checkpoint-steps", ro.checkpoint_steps, "also checkpoint every N steps")
       ->check(CLI::NonNegativeNumber);
+  run->add_option("--device", ro.device,
+                  "cpu (default), or gpu: a build with CUDA and a visible GPU (docs/gpu.md)")
+      ->check(CLI::IsMember({"cpu", "gpu"}));
 
   resume_flag->excludes(force_flag);
 
@@ -697,6 +718,7 @@ int main(int argc, char** argv) {
     if (*run) {
       if (threads > 0) omp_set_num_threads(threads);
       const Loaded l = load(scene_path, sets);  // all validation happens before the output is touched
+      check_device(ro);
       ro.force = force;
       ro.threads_given = threads > 0;
       return run_scene(l, scene_path, out_path, ro);

@@ -9,6 +9,7 @@
 // wall as a resting particle of diameter d_w, i.e. d_i/(d_i + d_w) w_i x r'_iw.
 #pragma once
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 
@@ -53,18 +54,47 @@ struct CylinderWall {
       if (b.n > 0) flush(p, law, b);
   }
 
+  // Whether a particle at (x, ., z) of diameter d_i is within the law's
+  // reach of the wall: r_iw > D/2 - range(d_i, d_w). Host and device
+  // (GRANULAR_HD): the GPU drum (gpu/drum_kernels.hpp) tests the same way.
+  template <class Law>
+  GRANULAR_HD bool in_reach(double x, double z, double di) const {
+    const double half_d = 0.5 * diameter;
+    const double rr = x * x + z * z;
+    const double reach = half_d - Law::range(di, d_wall);
+    return rr > reach * reach;
+  }
+
+  // The contact's geometry from the header's equations, for a particle at
+  // (x, ., z) of diameter d_i moving at (vx, vy, vz): r'_iw into rp, v_i -
+  // Omega (D/2) r^_iw x y^ into v, the lever multiplying w_i into lv, and
+  // d_iw. Host and device: the CPU batches (flush) and the GPU drum compute
+  // the same numbers.
+  GRANULAR_HD void geometry(double x, double z, double di, double vx, double vy, double vz, double (&rp)[3],
+                            double (&v)[3], double (&lv)[3], double& d_iw) const {
+    const double half_d = 0.5 * diameter;
+    const double r = std::sqrt(x * x + z * z);
+    const double scale = 1.0 - half_d / r;
+    rp[0] = scale * x;  // r'_iw
+    rp[1] = scale * 0.0;
+    rp[2] = scale * z;
+    v[0] = vx - omega * (-half_d * z / r);  // v_i - Omega (D/2) r^_iw x y^
+    v[1] = vy - omega * 0.0;
+    v[2] = vz - omega * (half_d * x / r);
+    const double arm = lever.arm(di, d_wall);
+    for (int a = 0; a < 3; ++a) lv[a] = arm * rp[a];
+    d_iw = 0.5 * (di + d_wall);
+  }
+
  private:
   // The particles of [b0, b1) within reach of the wall, into near; returns how many.
   template <class Law>
   std::size_t select_near(const ParticleStore<3>& p, std::size_t b0, std::size_t b1, std::uint32_t* near) const {
-    const double half_d = 0.5 * diameter;
     std::size_t m = 0;
     for (std::size_t i = b0; i < b1; ++i) {
       const Eigen::Vector3d& x = p.x[i];
-      const double rr = x.x() * x.x() + x.z() * x.z();
-      const double reach = half_d - Law::range(p.d[i], d_wall);
       near[m] = static_cast<std::uint32_t>(i);
-      m += rr > reach * reach;
+      m += in_reach<Law>(x.x(), x.z(), p.d[i]);
     }
     return m;
   }
@@ -100,22 +130,16 @@ struct CylinderWall {
   // same numbers), then the law's kernel, then the sums.
   template <class Law>
   void flush(ParticleStore<3>& p, const Law& law, WallBatch<3>& b) const {
-    const double half_d = 0.5 * diameter;
     const int nb = b.n;
 #pragma omp simd
     for (int k = 0; k < nb; ++k) {
-      const double x = b.rp[0][k], z = b.rp[2][k], di = b.di[k];
-      const double r = std::sqrt(x * x + z * z);
-      const double scale = 1.0 - half_d / r;
-      b.rp[0][k] = scale * x;  // r'_iw
-      b.rp[1][k] = scale * 0.0;
-      b.rp[2][k] = scale * z;
-      b.v[0][k] -= omega * (-half_d * z / r);  // v_i - Omega (D/2) r^_iw x y^
-      b.v[1][k] -= omega * 0.0;
-      b.v[2][k] -= omega * (half_d * x / r);
-      const double arm = lever.arm(di, d_wall);
-      for (int a = 0; a < 3; ++a) b.lever[a][k] = arm * b.rp[a][k];
-      b.d_iw[k] = 0.5 * (di + d_wall);
+      double rp[3], v[3], lv[3];
+      geometry(b.rp[0][k], b.rp[2][k], b.di[k], b.v[0][k], b.v[1][k], b.v[2][k], rp, v, lv, b.d_iw[k]);
+      for (int a = 0; a < 3; ++a) {
+        b.rp[a][k] = rp[a];
+        b.v[a][k] = v[a];
+        b.lever[a][k] = lv[a];
+      }
     }
     flush_wall_contacts(p, law, b);
   }

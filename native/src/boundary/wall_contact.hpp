@@ -17,7 +17,7 @@ namespace granular {
 struct WallLever {
   double paper = 1.0, pair = 0.0;
   // The factor on r'_iw for a particle of diameter d_i.
-  GRANULAR_INLINE double arm(double di, double d_wall) const { return paper + pair * di / (di + d_wall); }
+  GRANULAR_HD double arm(double di, double d_wall) const { return paper + pair * di / (di + d_wall); }
 };
 
 template <class Law>

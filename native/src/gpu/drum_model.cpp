@@ -1,0 +1,39 @@
+#include "gpu/drum_model.hpp"
+
+#include <stdexcept>
+#include <type_traits>
+
+namespace granular::gpu {
+
+static_assert(std::is_same_v<VariantOf<DrumLaws>, DrumGpuLaw>,
+              "the GPU drum's laws (gpu/drum_gpu.hpp) are the CPU drum's (engine/drum.hpp)");
+
+DrumModel drum_model(const DrumSim& sim) {
+  return std::visit(
+      [](const auto& s) -> DrumModel {
+        using Sim = std::decay_t<decltype(s)>;
+        if constexpr (Sim::template kHasWall<EndCaps>) {
+          throw std::invalid_argument(
+              "the GPU path runs drums with periodic ends only (drum.ends = \"periodic\"), not capped ones");
+        } else {
+          DrumModel m;
+          m.law = s.law;
+          m.wall = std::get<CylinderWall>(s.walls);
+          for (int a = 0; a < 3; ++a) {
+            m.lo[a] = s.domain.lo[a];
+            m.hi[a] = s.domain.hi[a];
+            m.periodic[a] = s.domain.periodic[a];
+            m.gravity[a] = s.integrator.gravity[a];
+          }
+          m.dt = s.integrator.dt;
+          m.skin = s.skin;
+          m.time = s.time;
+          m.step_count = s.step_count;
+          m.p = s.p;
+          return m;
+        }
+      },
+      sim);
+}
+
+}  // namespace granular::gpu
