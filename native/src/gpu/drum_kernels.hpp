@@ -364,9 +364,11 @@ struct WorstOverlap {
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
-    double sum = 0.0;
-    for (int a = 0; a < 3; ++a) sum += s.x[a * n + i] * 0.0 + s.v[a * n + i] * 0.0 + s.w[a * n + i] * 0.0;
-    if (!(sum == 0.0)) {  // NaN or infinity in a component
+    // v - v is 0 for a finite v, NaN for an infinite or NaN one.
+    double zero = 0.0;
+    for (int a = 0; a < 3; ++a)
+      zero += (s.x[a * n + i] - s.x[a * n + i]) + (s.v[a * n + i] - s.v[a * n + i]) + (s.w[a * n + i] - s.w[a * n + i]);
+    if (!(zero == 0.0)) {
       out[i] = std::numeric_limits<double>::infinity();
       return;
     }
