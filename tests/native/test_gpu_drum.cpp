@@ -20,6 +20,7 @@
 
 #include "gpu/drum_kernels.hpp"
 #include "gpu/drum_model.hpp"
+#include "gpu/drum_run.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
 
@@ -450,6 +451,44 @@ TEST(GpuDrum, DeviceMemoryEstimate) {
               many.list_columns, static_cast<double>(bytes) / 1073741824.0);
   EXPECT_GT(bytes, many.particles * 23 * 8);
   EXPECT_LT(bytes, std::size_t{1} << 34);  // 32 x #A fits an H100's 80 GB many times over
+}
+
+// The driver's health check: the device screen finds the worst overlap, and
+// engine/health.hpp's check_health on the downloaded state stops the run with
+// its message, as it does the CPU engine's at the same step; within the
+// limit, nothing is thrown.
+TEST(GpuDrum, TheDriversHealthCheckStopsWithTheCpuEnginesMessage) {
+  const DrumScene s = drum_a({"drum.length=8"});
+  DrumSim gpu_sim = make_drum(s), cpu_sim = make_drum(s);
+  const auto driver = gpu::make_drum_driver(s, {&gpu_sim}, static_cast<gpu::StepperFactory>(&gpu::make_host_drum));
+  driver->start();
+  driver->advance(150);
+  std::visit([](auto& v) { v.advance(150); }, cpu_sim);
+  HealthLimits lim;
+  driver->check_health(lim);  // 40 %: a healthy drum
+  lim.max_overlap = 1e-3;
+  std::string gpu_message, cpu_message;
+  try {
+    driver->check_health(lim);
+  } catch (const UnstableError& e) {
+    gpu_message = e.what();
+  }
+  std::visit(
+      [&](auto& v) {
+        EXPECT_EQ(v.step_count, 150);
+        try {
+          check_health(v, lim);
+        } catch (const UnstableError& e) {
+          cpu_message = e.what();
+        }
+      },
+      cpu_sim);
+  const std::string start = "simulation unstable at step 150 (t = 1.5): particles id ";
+  EXPECT_EQ(gpu_message.rfind(start, 0), 0u) << gpu_message;
+  EXPECT_EQ(cpu_message.rfind(start, 0), 0u) << cpu_message;
+  EXPECT_NE(gpu_message.find("% of their contact distance (limit 0.1 %)"), std::string::npos) << gpu_message;
+  // The same pair, overlapping by the same amount to the message's 6 digits.
+  EXPECT_EQ(gpu_message, cpu_message);
 }
 
 }  // namespace
