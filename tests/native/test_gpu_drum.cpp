@@ -20,6 +20,7 @@
 
 #include "gpu/drum_kernels.hpp"
 #include "gpu/drum_model.hpp"
+#include "gpu/drum_run.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
 
@@ -284,6 +285,210 @@ TEST(GpuDrum, PiecesGiveTheSameBitsAndCappedEndsAreRefused) {
   EXPECT_TRUE(pa.x == pb.x && pa.v == pb.v && pa.w == pb.w);
   const DrumSim capped = make_drum(drum_a({"drum.length=8", "drum.ends=capped"}));
   EXPECT_THROW(gpu::drum_model(capped), std::invalid_argument);
+}
+
+}  // namespace
+
+namespace {
+
+// The GPU path's model of drum #A at L = 8 with seed `seed`.
+gpu::DrumModel model_of(std::uint64_t seed) {
+  const DrumSim sim = make_drum(drum_a({"drum.length=8", "particles.seed=" + std::to_string(seed)}));
+  return gpu::drum_model(sim);
+}
+
+bool same_state(const ParticleStore<3>& a, const ParticleStore<3>& b) {
+  return a.x == b.x && a.v == b.v && a.w == b.w && a.f == b.f && a.tq == b.tq;
+}
+
+// Replicas side by side in one stepper (one launch per kernel for all, cells
+// keyed by replica) give each the bits of a stepper of that replica alone:
+// each rebuilds its list when its own particles have moved far enough.
+TEST(GpuDrum, ReplicasGiveTheBitsOfEachAlone) {
+  const std::vector<gpu::DrumModel> ms = {model_of(1), model_of(2), model_of(3)};
+  const auto together = gpu::make_host_drum(ms);
+  EXPECT_EQ(together->replicas(), 3);
+  together->advance(300);
+  long builds_alone = 0;
+  for (int r = 0; r < 3; ++r) {
+    const auto alone = gpu::make_host_drum(ms[r]);
+    alone->advance(300);
+    builds_alone = std::max(builds_alone, alone->builds());
+    ParticleStore<3> a = ms[r].p, t = ms[r].p;
+    alone->download(a);
+    together->download(t, r);
+    EXPECT_TRUE(same_state(a, t)) << "replica " << r;
+    EXPECT_TRUE(alone->reference_positions() == together->reference_positions(r)) << "replica " << r;
+    EXPECT_FALSE(a.x == ms[r].p.x);
+  }
+  // The replicas' lists were rebuilt at different steps: more builds of the
+  // ensemble than of any replica alone.
+  EXPECT_GT(together->builds(), builds_alone);
+  ParticleStore<3> a = ms[0].p, b = ms[1].p;
+  together->download(a, 0);
+  together->download(b, 1);
+  EXPECT_FALSE(a.x == b.x);
+}
+
+// A stepper made from a state and its list's reference positions (a
+// checkpoint's) continues bit for bit as the stepper that state came from.
+TEST(GpuDrum, ResumingFromTheListReferenceGivesTheSameBits) {
+  const gpu::DrumModel m = model_of(1);
+  const auto whole = gpu::make_host_drum(m);
+  whole->advance(120);
+  gpu::DrumModel saved = m;
+  whole->download(saved.p);
+  saved.x_ref = whole->reference_positions();
+  saved.time = whole->time();
+  saved.step_count = whole->step_count();
+  EXPECT_FALSE(saved.x_ref == saved.p.x);  // the list is not the current positions'
+  const auto resumed = gpu::make_host_drum(saved);
+  whole->advance(180);
+  resumed->advance(180);
+  ParticleStore<3> a = m.p, b = m.p;
+  whole->download(a);
+  resumed->download(b);
+  EXPECT_TRUE(same_state(a, b));
+  EXPECT_EQ(whole->time(), resumed->time());
+  EXPECT_EQ(whole->step_count(), resumed->step_count());
+}
+
+// A step beyond the move limit stops the stepper before the step is
+// counted, naming the replica.
+TEST(GpuDrum, AStepBeyondTheMoveLimitStopsNamingTheReplica) {
+  std::vector<gpu::DrumModel> ms = {model_of(1), model_of(2)};
+  ms[1].p.v[5] = Eigen::Vector3d(0.0, 0.0, 1e3);  // 10 per step at dt = 0.01
+  for (auto& m : ms) m.max_step_move = 0.4;
+  const auto s = gpu::make_host_drum(ms);
+  try {
+    s->advance(10);
+    ADD_FAILURE() << "no StepUnstable";
+  } catch (const gpu::StepUnstable& e) {
+    EXPECT_EQ(e.replica, 1);
+  }
+  EXPECT_EQ(s->step_count(), 0);
+  ParticleStore<3> p = ms[1].p;
+  s->download(p, 1);
+  EXPECT_NE(p.x[5].z(), ms[1].p.x[5].z());  // the state after the failing step's drift
+  ms[1].p.v[5].z() = std::nan("");
+  ms[1].max_step_move = INFINITY;
+  ms[0].max_step_move = INFINITY;
+  const auto t = gpu::make_host_drum(ms);
+  EXPECT_THROW(t->advance(1), gpu::StepUnstable);
+}
+
+// The health screen's worst overlap is the largest overlap of any pair in
+// range, found by brute force over every pair of the downloaded state; a
+// non-finite velocity makes it +infinity.
+TEST(GpuDrum, WorstOverlapIsTheBruteForceOne) {
+  const gpu::DrumModel m = model_of(1);
+  const auto s = gpu::make_host_drum(m);
+  s->advance(250);
+  ParticleStore<3> p = m.p;
+  s->download(p);
+  const double length = m.hi[1] - m.lo[1];
+  double worst = -INFINITY;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    for (std::size_t j = 0; j < p.size(); ++j) {
+      if (i == j) continue;
+      Eigen::Vector3d dr = p.x[i] - p.x[j];
+      dr.y() -= length * std::nearbyint(dr.y() / length);
+      const double rc = RapaportLaw<3>::range(p.d[i], p.d[j]), r = dr.norm();
+      if (r < rc) worst = std::max(worst, (rc - r) / rc);
+    }
+  ASSERT_GT(worst, 0.0);
+  const std::vector<double> got = s->worst_overlap();
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_NEAR(got[0], worst, 1e-12);
+  gpu::DrumModel bad = m;
+  bad.p.w[3].x() = INFINITY;
+  EXPECT_EQ(gpu::make_host_drum(bad)->worst_overlap()[0], INFINITY);
+}
+
+// The device memory estimate: its formula, the expected list columns of a
+// packing, and the sizing of drum #A's replicas.
+TEST(GpuDrum, DeviceMemoryEstimate) {
+  gpu::DeviceSizing z;
+  z.particles = 1000;
+  z.cells = 50;
+  z.list_columns = 40;
+  EXPECT_EQ(gpu::device_bytes(z), 1000u * (23 * 8 + (7 + 4 + 40) * 4) + 50u * 2 * 4);
+  // 8 * 0.64 * 1.7^3 - 1 = 24.15: 25 columns, a quarter more and 8.
+  EXPECT_EQ(gpu::expected_list_columns(1.7, 1.0), 25u + 6u + 8u);
+  EXPECT_GT(gpu::expected_list_columns(2.0, 1.0), gpu::expected_list_columns(1.7, 1.0));
+  const DrumSim sim = make_drum(drum_a({}));  // #A: L = 128, D = 16
+  const gpu::DrumModel m = gpu::drum_model(sim);
+  const gpu::DeviceSizing one = gpu::drum_sizing(m, 1), many = gpu::drum_sizing(m, 32);
+  EXPECT_EQ(one.particles, m.p.size());
+  EXPECT_EQ(many.particles, 32 * m.p.size());
+  EXPECT_EQ(many.cells, 32 * one.cells);
+  EXPECT_EQ(many.list_columns, one.list_columns);
+  EXPECT_GT(one.list_columns, 20u);
+  EXPECT_LT(one.list_columns, 120u);  // the smallest grains (d = 0.8) set the density
+  // The longest row of a collapsed drum (L = 8, 250 steps), counted by brute
+  // force within range + skin, fits the columns expected.
+  const gpu::DrumModel small = model_of(1);
+  const auto s = gpu::make_host_drum(small);
+  s->advance(250);
+  ParticleStore<3> p = small.p;
+  s->download(p);
+  const double length = small.hi[1] - small.lo[1];
+  std::size_t longest = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    std::size_t row = 0;
+    for (std::size_t j = 0; j < p.size(); ++j) {
+      Eigen::Vector3d dr = p.x[i] - p.x[j];
+      dr.y() -= length * std::nearbyint(dr.y() / length);
+      const double reach = RapaportLaw<3>::range(p.d[i], p.d[j]) + small.skin;
+      row += j != i && dr.squaredNorm() < reach * reach;
+    }
+    longest = std::max(longest, row);
+  }
+  EXPECT_GT(longest, 5u);
+  EXPECT_LE(longest, gpu::drum_sizing(small, 1).list_columns);
+  const std::size_t bytes = gpu::device_bytes(many);
+  std::printf("32 x drum #A: %zu particles, %zu cells, %zu list columns: %.3f GiB\n", many.particles, many.cells,
+              many.list_columns, static_cast<double>(bytes) / 1073741824.0);
+  EXPECT_GT(bytes, many.particles * 23 * 8);
+  EXPECT_LT(bytes, std::size_t{1} << 34);  // 32 x #A fits an H100's 80 GB many times over
+}
+
+// The driver's health check: the device screen finds the worst overlap, and
+// engine/health.hpp's check_health on the downloaded state stops the run with
+// its message, as it does the CPU engine's at the same step; within the
+// limit, nothing is thrown.
+TEST(GpuDrum, TheDriversHealthCheckStopsWithTheCpuEnginesMessage) {
+  const DrumScene s = drum_a({"drum.length=8"});
+  DrumSim gpu_sim = make_drum(s), cpu_sim = make_drum(s);
+  const auto driver = gpu::make_drum_driver(s, {&gpu_sim}, static_cast<gpu::StepperFactory>(&gpu::make_host_drum));
+  driver->start();
+  driver->advance(150);
+  std::visit([](auto& v) { v.advance(150); }, cpu_sim);
+  HealthLimits lim;
+  driver->check_health(lim);  // 40 %: a healthy drum
+  lim.max_overlap = 1e-3;
+  std::string gpu_message, cpu_message;
+  try {
+    driver->check_health(lim);
+  } catch (const UnstableError& e) {
+    gpu_message = e.what();
+  }
+  std::visit(
+      [&](auto& v) {
+        EXPECT_EQ(v.step_count, 150);
+        try {
+          check_health(v, lim);
+        } catch (const UnstableError& e) {
+          cpu_message = e.what();
+        }
+      },
+      cpu_sim);
+  const std::string start = "simulation unstable at step 150 (t = 1.5): particles id ";
+  EXPECT_EQ(gpu_message.rfind(start, 0), 0u) << gpu_message;
+  EXPECT_EQ(cpu_message.rfind(start, 0), 0u) << cpu_message;
+  EXPECT_NE(gpu_message.find("% of their contact distance (limit 0.1 %)"), std::string::npos) << gpu_message;
+  // The same pair, overlapping by the same amount to the message's 6 digits.
+  EXPECT_EQ(gpu_message, cpu_message);
 }
 
 }  // namespace

@@ -1,10 +1,11 @@
 // granular: the native engine's command-line program.
 //   granular run SCENE [-o OUT.h5] [--force | --resume] [--set key=value]... [--threads N]
-//                [--checkpoint-every MINUTES] [--checkpoint-steps N] [--device cpu|gpu]
+//                [--checkpoint-every MINUTES] [--checkpoint-steps N] [--device cpu|gpu|gpu-host]
+//                [--replicas K]
 //   granular init SCENE [-o INIT.h5] [--force] [--set key=value]...
 //   granular info SCENE [--set key=value]... [--json]
 //   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S] [--repeat K]
-//                  [--ceiling N] [--json]
+//                  [--ceiling N] [--json] [--device cpu|gpu|gpu-host] [--replicas K]
 // SCENE is a drum (Rapaport 2002), shaken-box (Poeschel and Herrmann 1995) or
 // particles (explicit spheres and plane walls, docs/particles_scene.md) scene
 // file; its scene.kind picks the model. Exit status (docs/errors.md):
@@ -34,6 +35,8 @@
 #include "engine/particles.hpp"
 #include "engine/run_control.hpp"
 #include "gpu/drum_gpu.hpp"
+#include "gpu/drum_model.hpp"
+#include "gpu/drum_run.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/scene_file.hpp"
 #include "scene/step_rule.hpp"
@@ -276,22 +279,74 @@ struct RunOptions {
   double checkpoint_minutes = 10.0;
   long checkpoint_steps = 0;
   std::string device = "cpu";
+  int replicas = 0;  // --replicas K (0: not given, one run named as given)
+  std::vector<std::string> sets;
 };
 
-// --device gpu (docs/gpu.md): refused, with the reason, before anything is
-// written. The GPU path's drum step is built and tested (with CUDA, its
-// kernels are in this program), but a run on it writes no output, so a run
-// is refused even where a GPU is visible.
-void check_device(const RunOptions& o) {
-  if (o.device != "gpu") return;
+// --device gpu and gpu-host (docs/gpu.md): the GPU engine, on a CUDA device
+// or with its kernels built by the host compiler and run on the CPU (a
+// device for checking the GPU engine without a GPU). Refused, with the
+// reason, before anything is written: a scene the GPU engine does not run
+// (gpu/drum_run.cpp, unsupported_scene), --device gpu in a build without
+// CUDA or without a visible CUDA device, --replicas on the CPU.
+void check_device(const std::string& device, int replicas, const Loaded& l) {
+  if (device == "cpu") {
+    if (replicas > 0) throw UsageError("--replicas: replicas run on the GPU engine only (--device gpu or gpu-host)");
+    return;
+  }
+  const std::string why = gpu::unsupported_scene(l.kind, l.drum ? &*l.drum : nullptr);
+  if (!why.empty()) throw UsageError("--device " + device + ": " + why + "; run it with --device cpu");
+  if (device != "gpu") return;
 #if defined(GRANULAR_HAVE_CUDA)
-  const std::string why = gpu::cuda_unavailable();
-  if (!why.empty()) throw UsageError("--device gpu: " + why + "; run on the CPU with --device cpu");
-  throw UsageError("--device gpu: runs on the GPU write no output (docs/gpu.md); run on the CPU with --device cpu");
+  const std::string none = gpu::cuda_unavailable();
+  if (!none.empty()) throw UsageError("--device gpu: " + none + "; run on the CPU with --device cpu");
 #else
   throw UsageError("--device gpu: this granular was built without CUDA (docs/gpu.md); run on the CPU with "
                    "--device cpu");
 #endif
+}
+
+// The stepper of the GPU engine on a device (gpu: CUDA; gpu-host: the host
+// build of the same kernels).
+gpu::StepperFactory stepper_factory(const std::string& device) {
+#if defined(GRANULAR_HAVE_CUDA)
+  if (device == "gpu") return &gpu::make_cuda_drum;
+#endif
+  if (device == "gpu-host") return static_cast<gpu::StepperFactory>(&gpu::make_host_drum);
+  throw UsageError("--device " + device + ": not a GPU engine device");
+}
+
+// Before a CUDA run: the device memory the replicas need (gpu/drum_gpu.hpp,
+// device_bytes) against the device's free memory; refused if it does not fit.
+void check_device_memory(const std::string& device, const DrumSim& sim, int replicas) {
+#if defined(GRANULAR_HAVE_CUDA)
+  if (device != "gpu") return;
+  const gpu::DrumModel m = gpu::drum_model(sim);
+  const double need = static_cast<double>(gpu::device_bytes(gpu::drum_sizing(m, replicas)));
+  const double free = static_cast<double>(gpu::cuda_free_bytes());
+  if (need > free) {
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "--device gpu: the run needs about %.2f GiB of GPU memory (%d replica(s) of %zu particles), the GPU "
+                  "has %.2f GiB free; run fewer replicas or a smaller scene",
+                  need / 1073741824.0, replicas, m.p.size(), free / 1073741824.0);
+    throw UsageError(buf);
+  }
+#else
+  (void)device;
+  (void)sim;
+  (void)replicas;
+#endif
+}
+
+// Replica k's output: OUT's stem + "_r" + k (two digits, more where K > 100) + OUT's extension.
+std::string replica_output(const std::string& out, int k, int replicas) {
+  const std::filesystem::path p(out);
+  int width = 2;
+  for (int m = replicas - 1; m >= 100; m /= 10) ++width;
+  std::string num = std::to_string(k);
+  num.insert(0, static_cast<std::size_t>(std::max(0, width - static_cast<int>(num.size()))), '0');
+  return (p.parent_path() / (p.stem().string() + "_r" + num + p.extension().string())).string();
 }
 
 // Keys of the resolved scene, flattened to "section.key", with their values.
@@ -357,8 +412,103 @@ int run_particles_scene(const Loaded& l, const std::string& scene_path, std::str
   return 0;
 }
 
+// A drum run on the GPU engine (docs/gpu.md): one scene, or with --replicas K
+// its seeds particles.seed + k, k < K, side by side in one stepper, each
+// replica writing its own output (replica_output) and checkpoint.
+int run_gpu_drum(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
+  if (out_path.empty()) out_path = l.name() + ".h5";
+  const int replicas = std::max(1, o.replicas);
+  std::vector<Loaded> scenes;
+  std::vector<std::string> outs;
+  for (int k = 0; k < replicas; ++k) {
+    if (o.replicas > 0) {
+      std::vector<std::string> sets = o.sets;
+      sets.push_back("particles.seed=" + std::to_string(l.drum->seed + static_cast<std::uint64_t>(k)));
+      scenes.push_back(load(scene_path, sets));
+      outs.push_back(replica_output(out_path, k, replicas));
+    } else {
+      scenes.push_back(l);
+      outs.push_back(out_path);
+    }
+  }
+  std::vector<std::optional<CheckpointData>> saved(replicas);
+  for (int k = 0; k < replicas; ++k) {
+    const std::string ckpt_path = checkpoint_path(outs[k]);
+    if (o.resume) {
+      if (!std::filesystem::exists(outs[k])) throw UsageError(outs[k] + ": no output file to resume");
+      if (!std::filesystem::exists(ckpt_path))
+        throw UsageError(ckpt_path + ": no checkpoint to resume from (a run writes one every --checkpoint-every "
+                                     "minutes, on SIGINT/SIGTERM and at its end; start the run again with --force)");
+      try {
+        saved[k] = read_checkpoint(ckpt_path);
+      } catch (const std::runtime_error& e) {
+        throw UsageError(e.what());
+      }
+      check_same_scene(ckpt_path, saved[k]->scene_json, scenes[k].json);
+      if (!saved[k]->ints.count(gpu::kCheckpointKey))
+        throw UsageError(ckpt_path + ": the checkpoint was written by --device cpu; resume it with --device cpu");
+      if (saved[k]->step != saved[0]->step)
+        throw UsageError(ckpt_path + ": the replicas' checkpoints are of different steps (" +
+                         std::to_string(saved[k]->step) + " and " + std::to_string(saved[0]->step) + ")");
+    } else {
+      check_output(outs[k], o.force);
+    }
+  }
+  std::vector<DrumSim> sims;
+  sims.reserve(replicas);
+  for (int k = 0; k < replicas; ++k) sims.push_back(make_drum(*scenes[k].drum));
+  check_device_memory(o.device, sims.front(), replicas);
+  if (!o.resume)
+    for (const std::string& out : outs) std::filesystem::remove(checkpoint_path(out));  // an earlier run's
+  install_stop_handlers();
+  const DrumScene& s = *l.drum;
+  std::vector<std::unique_ptr<H5Output>> files;
+  std::vector<DrumMember> members;
+  std::vector<DrumSim*> ptrs;
+  std::size_t n = 0;
+  for (int k = 0; k < replicas; ++k) {
+    const auto nk = std::visit([](auto& v) { return v.p.size(); }, sims[k]);
+    n += nk;
+    files.push_back(std::make_unique<H5Output>(outs[k], 3, static_cast<std::int64_t>(nk), false,
+                                               saved[k] ? &saved[k]->rows : nullptr));
+    H5Output& out = *files.back();
+    common_attrs<3>(out, scenes[k], scene_path);
+    out.attr("omega", s.omega);
+    out.attr("rotation_period", s.rotation_period());
+    out.group_attr("frames", "species_names", {"small", "big"});
+    RunControl ctl;
+    ctl.checkpoint = checkpoint_path(outs[k]);
+    ctl.every_seconds = 60.0 * o.checkpoint_minutes;
+    ctl.every_steps = o.checkpoint_steps;
+    ctl.resume = saved[k] ? &*saved[k] : nullptr;
+    ctl.meta.scene_json = scenes[k].json;
+    ctl.meta.engine_version = kVersion;
+    ctl.meta.threads = omp_get_max_threads();
+    ctl.meta.seed = static_cast<std::int64_t>(scenes[k].drum->seed);
+    members.push_back({&sims[k], &out, ctl});
+    ptrs.push_back(&sims[k]);
+  }
+  std::fprintf(stderr, "granular %s: drum %s (%s), %zu particles, %.4g rotations, device %s", kVersion,
+               s.name.c_str(), scene_path.c_str(), n, s.rotations, o.device.c_str());
+  if (o.replicas > 0)
+    std::fprintf(stderr, ", %d replicas (particles.seed %llu to %llu) -> %s ... %s\n", replicas,
+                 static_cast<unsigned long long>(s.seed), static_cast<unsigned long long>(s.seed + replicas - 1),
+                 outs.front().c_str(), outs.back().c_str());
+  else
+    std::fprintf(stderr, " -> %s\n", out_path.c_str());
+  if (saved[0])
+    std::fprintf(stderr, "resuming from step %lld (rotation %.4g)\n", static_cast<long long>(saved[0]->step),
+                 saved[0]->time / s.rotation_period());
+  const auto driver = gpu::make_drum_driver(s, ptrs, stepper_factory(o.device), outs);
+  const RunReport r = run_drums(s, members, *driver, !o.quiet && isatty(fileno(stderr)));
+  std::fprintf(stderr, "done: %ld steps in %.1f s, %.3g particle-steps/s\n", r.steps, r.seconds,
+               r.particle_steps_per_second);
+  return 0;
+}
+
 int run_scene(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
   if (l.particles) return run_particles_scene(l, scene_path, out_path, o);
+  if (o.device != "cpu") return run_gpu_drum(l, scene_path, out_path, o);
   if (out_path.empty()) out_path = l.name() + ".h5";
   const std::string ckpt_path = checkpoint_path(out_path);
   std::optional<CheckpointData> saved;
@@ -373,6 +523,9 @@ int run_scene(const Loaded& l, const std::string& scene_path, std::string out_pa
       throw UsageError(e.what());
     }
     check_same_scene(ckpt_path, saved->scene_json, l.json);
+    if (saved->ints.count(gpu::kCheckpointKey))
+      throw UsageError(ckpt_path + ": the checkpoint was written by the GPU engine; resume it with --device gpu or "
+                                   "--device gpu-host");
     if (!o.threads_given)
       omp_set_num_threads(static_cast<int>(saved->threads));
     else if (saved->threads != omp_get_max_threads())
@@ -629,6 +782,67 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
   return 0;
 }
 
+// granular bench --device gpu|gpu-host: the GPU engine's stepper on K seeds
+// of a drum scene (particles.seed + k), settled `settle` rotations on the
+// device, then `rounds` stretches of `rotations` rotations timed one after
+// another; the median stretch is reported in the CPU bench's fields.
+int run_gpu_bench(const Loaded& l, const std::string& device, int replicas, int rounds, double settle,
+                  double rotations, bool as_json) {
+  const DrumScene& s = *l.drum;
+  std::vector<gpu::DrumModel> models;
+  for (int k = 0; k < replicas; ++k) {
+    DrumScene sk = s;
+    sk.seed = s.seed + static_cast<std::uint64_t>(k);
+    DrumSim sim = make_drum(sk);
+    if (k == 0) check_device_memory(device, sim, replicas);
+    models.push_back(gpu::drum_model(sim));
+  }
+  const auto stepper = stepper_factory(device)(models);
+  long particles = 0;
+  for (const auto& m : models) particles += static_cast<long>(m.p.size());
+  stepper->advance(s.steps_per(settle < 0 ? 0.5 : settle));
+  const long steps = std::max(1L, s.steps_per(rotations));
+  std::vector<double> rates, seconds;
+  std::vector<long> builds;
+  for (int k = 0; k < rounds; ++k) {
+    const long b0 = stepper->builds();
+    const auto t0 = std::chrono::steady_clock::now();
+    stepper->advance(steps);
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    seconds.push_back(el);
+    rates.push_back(el > 0 ? static_cast<double>(steps) * particles / el : 0.0);
+    builds.push_back(stepper->builds() - b0);
+  }
+  std::vector<std::size_t> by(rates.size());
+  for (std::size_t k = 0; k < by.size(); ++k) by[k] = k;
+  std::sort(by.begin(), by.end(), [&](std::size_t a, std::size_t b) { return rates[a] < rates[b]; });
+  const std::size_t med = by[by.size() / 2];
+  const nlohmann::json res = nlohmann::json::array({{{"scene", l.name()},
+                                                     {"device", device},
+                                                     {"backend", stepper->backend()},
+                                                     {"replicas", replicas},
+                                                     {"threads", device == "gpu-host" ? omp_get_max_threads() : 0},
+                                                     {"copies", 1},
+                                                     {"particles", particles},
+                                                     {"particle_steps_per_second", rates[med]},
+                                                     {"min", rates[by.front()]},
+                                                     {"max", rates[by.back()]},
+                                                     {"rates", rates},
+                                                     {"repeats", rounds},
+                                                     {"seconds", seconds[med]},
+                                                     {"steps", steps},
+                                                     {"neighbor_builds", builds[med]},
+                                                     {"peak_rss_bytes_per_particle", peak_rss_bytes() / particles}}});
+  if (as_json)
+    std::cout << res.dump(2) << "\n";
+  else
+    std::printf("scene %s  device %s (%s)  %d replica(s), %ld particles  %.3e particle-steps/s  (median of %d, "
+                "range %.3e-%.3e)  %ld neighbour-list builds in %ld steps\n",
+                l.name().c_str(), device.c_str(), stepper->backend(), replicas, particles, rates[med], rounds,
+                rates[by.front()], rates[by.back()], builds[med], steps);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -659,8 +873,13 @@ int main(int argc, char** argv) {
   run->add_option("--checkpoint-steps", ro.checkpoint_steps, "also checkpoint every N steps")
       ->check(CLI::NonNegativeNumber);
   run->add_option("--device", ro.device,
-                  "cpu (default), or gpu: a build with CUDA and a visible GPU (docs/gpu.md)")
-      ->check(CLI::IsMember({"cpu", "gpu"}));
+                  "cpu (default); gpu: the GPU engine on a CUDA device (a build with CUDA and a visible GPU); "
+                  "gpu-host: the GPU engine's kernels run on the CPU, for checking it without a GPU (docs/gpu.md)")
+      ->check(CLI::IsMember({"cpu", "gpu", "gpu-host"}));
+  run->add_option("--replicas", ro.replicas,
+                  "GPU engine: K drums of the scene with particles.seed, seed+1, ..., seed+K-1 side by side, each "
+                  "written to OUT's stem + _r00, _r01, ... (docs/gpu.md)")
+      ->check(CLI::PositiveNumber);
 
   resume_flag->excludes(force_flag);
 
@@ -697,6 +916,13 @@ int main(int argc, char** argv) {
                     "machine when nothing is shared but the machine (0: not timed)")
       ->check(CLI::NonNegativeNumber);
   bench->add_flag("--json", bench_json, "print JSON");
+  std::string bench_device = "cpu";
+  int bench_replicas = 0;
+  bench->add_option("--device", bench_device,
+                    "cpu (default), gpu or gpu-host: time the GPU engine's step instead (docs/gpu.md)")
+      ->check(CLI::IsMember({"cpu", "gpu", "gpu-host"}));
+  bench->add_option("--replicas", bench_replicas, "GPU engine: K seeds of the scene stepped side by side")
+      ->check(CLI::PositiveNumber);
 
   try {
     app.parse(argc, argv);
@@ -718,7 +944,8 @@ int main(int argc, char** argv) {
     if (*run) {
       if (threads > 0) omp_set_num_threads(threads);
       const Loaded l = load(scene_path, sets);  // all validation happens before the output is touched
-      check_device(ro);
+      check_device(ro.device, ro.replicas, l);
+      ro.sets = sets;
       ro.force = force;
       ro.threads_given = threads > 0;
       return run_scene(l, scene_path, out_path, ro);
@@ -726,6 +953,9 @@ int main(int argc, char** argv) {
     if (*bench) {
       const Loaded l = load(scene_path, sets);
       if (l.particles) throw UsageError(scene_path + ": granular bench times drum and shaken-box scenes only");
+      check_device(bench_device, bench_replicas, l);
+      if (bench_device != "cpu")
+        return run_gpu_bench(l, bench_device, std::max(1, bench_replicas), repeat, settle, bench_rot, bench_json);
       if (bench_threads.empty()) bench_threads = {1, omp_get_num_procs()};
       return run_bench(l, bench_threads, repeat, ceiling, settle, l.drum ? bench_rot : bench_seconds, bench_json);
     }

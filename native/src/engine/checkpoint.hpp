@@ -80,10 +80,11 @@ void capture(const Sim& sim, CheckpointData& c) {
   for (std::size_t k = 0; k < p.aux_a.size(); ++k) c.reals["aux_a" + std::to_string(k)] = flat(p.aux_a[k]);
 }
 
-// Puts c's state into sim, which must have been made from the same scene (the
-// particle count and each column's length are checked).
+// Puts c's state into sim's store, time and step count, which must have been
+// made from the same scene (the particle count and each column's length are
+// checked); returns the positions the saved neighbour list was built from.
 template <class Sim>
-void restore(Sim& sim, const CheckpointData& c) {
+Column<typename Sim::V> restore_state(Sim& sim, const CheckpointData& c) {
   using namespace ckpt_detail;
   auto& p = sim.p;
   const std::size_t n = p.size();
@@ -104,7 +105,14 @@ void restore(Sim& sim, const CheckpointData& c) {
   unflat(c, "x_ref", n, x_ref);
   sim.time = c.time;
   sim.step_count = c.step;
-  sim.restore_neighbors(std::move(x_ref));
+  return x_ref;
+}
+
+// Puts c's state into sim (restore_state) and rebuilds its neighbour list
+// from the saved reference positions.
+template <class Sim>
+void restore(Sim& sim, const CheckpointData& c) {
+  sim.restore_neighbors(restore_state(sim, c));
 }
 
 }  // namespace granular

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <type_traits>
 
@@ -128,60 +129,121 @@ HealthLimits drum_health(const DrumScene& s) {
   return h;
 }
 
+// The run loop of one drum (driver null: stepped by its simulation) or of
+// several stepped by a driver, all on the first member's schedule.
 template <class Sim>
-RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, const RunControl& ctl) {
+RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, DrumDriver* driver, bool progress) {
+  const std::size_t members = ms.size();
+  std::vector<Sim*> sims;
+  for (DrumMember& m : ms) {
+    if (!std::holds_alternative<Sim>(*m.sim)) throw std::logic_error("run_drums: the members' models differ");
+    sims.push_back(&std::get<Sim>(*m.sim));
+  }
+  Sim& sim = *sims.front();  // the schedule's
   const HealthLimits health = drum_health<Sim>(s);
-  health.apply(sim);
+  for (Sim* v : sims) health.apply(*v);
   const long total = s.steps_per(s.rotations);
   const auto edges = slice_edges(s);
   const double period = s.rotation_period();
   // Output times are multiples of the interval in rotations, each rounded to
   // the nearest step, so they do not drift; the final state is always written.
-  long snap_k = 0, prof_k = 0;
-  auto due = [&](long& k, double every) {
-    if (sim.step_count < s.steps_per(k * every)) return false;
-    while (s.steps_per(k * every) <= sim.step_count) ++k;
+  struct Counters {
+    long snap_k = 0, prof_k = 0;
+    int census = -1;
+  };
+  std::vector<Counters> cs(members);
+  auto due = [&](const Sim& v, long& k, double every) {
+    if (v.step_count < s.steps_per(k * every)) return false;
+    while (s.steps_per(k * every) <= v.step_count) ++k;
     return true;
   };
-  const int census = out ? init_census(*out, decltype(sim.law)::kSpecies) : -1;
-  auto observe = [&](bool final_step) {
-    ScopedPhase ph(sim.timers, Phase::observe);
-    const bool prof = due(prof_k, s.profile_every) || final_step;
-    const bool snap = due(snap_k, s.snapshot_every) || final_step;
+  for (std::size_t r = 0; r < members; ++r)
+    cs[r].census = ms[r].out ? init_census(*ms[r].out, decltype(sim.law)::kSpecies) : -1;
+  auto observe = [&](std::size_t r, bool final_step) {
+    Sim& v = *sims[r];
+    H5Output* out = ms[r].out;
+    Counters& c = cs[r];
+    ScopedPhase ph(v.timers, Phase::observe);
+    const bool prof = due(v, c.prof_k, s.profile_every) || final_step;
+    const bool snap = due(v, c.snap_k, s.snapshot_every) || final_step;
+    if (driver && (prof || (out && snap))) driver->fetch(r);
     if (prof) {
-      check_inside(sim, s);
+      check_inside(v, s);
       if (out) {
-        out->profile(sim.time, axial_small_fraction(sim.p, edges));
-        write_census(*out, census, sim.time, coulomb_census(sim));
+        out->profile(v.time, axial_small_fraction(v.p, edges));
+        write_census(*out, c.census, v.time, driver ? driver->census(r) : coulomb_census(v));
       }
     }
-    if (out && snap) out->frame(sim.time, sim.step_count, sim.p);
+    if (out && snap) out->frame(v.time, v.step_count, v.p);
   };
-  if (out) out->init_profile(edges);
-  const long start = begin_run(sim, ctl, {&snap_k, &prof_k}, "drum", [&] { observe(false); });
-  Checkpointer checkpoints(ctl);
-  const auto t0 = start_loop(sim, out);
+  for (std::size_t r = 0; r < members; ++r)
+    if (ms[r].out) ms[r].out->init_profile(edges);
+  long start = 0;
+  for (std::size_t r = 0; r < members; ++r) {
+    Sim& v = *sims[r];
+    auto first_output = [&] { observe(r, false); };
+    const long from = driver ? begin_run(v, ms[r].ctl, {&cs[r].snap_k, &cs[r].prof_k}, "drum", first_output,
+                                         [&](const CheckpointData& c) { driver->restore(r, c); })
+                             : begin_run(v, ms[r].ctl, {&cs[r].snap_k, &cs[r].prof_k}, "drum", first_output);
+    if (r == 0) start = from;
+    if (from != start) throw std::runtime_error(ms[r].ctl.checkpoint + ": the members' checkpoints are of different steps");
+  }
+  if (driver) driver->start();
+  std::vector<Checkpointer> checkpoints;
+  for (const DrumMember& m : ms) checkpoints.emplace_back(m.ctl);
+  std::vector<H5Output*> outs;
+  std::chrono::steady_clock::time_point t0;
+  for (std::size_t r = 0; r < members; ++r) {
+    outs.push_back(ms[r].out);
+    t0 = start_loop(*sims[r], ms[r].out);
+  }
   auto last_print = t0;
-  const long n = static_cast<long>(sim.p.size());
+  long n = 0;
+  for (Sim* v : sims) n += static_cast<long>(v->p.size());
   // The steps between two that observe, check or report run in one go.
   auto acts = [&](long k, double) {
-    return k % health.every == 0 || s.steps_per(prof_k * s.profile_every) <= k ||
-           s.steps_per(snap_k * s.snapshot_every) <= k || checkpoints.may_act_at(k) || (progress && k % 200 == 0);
+    const Counters& c = cs.front();
+    return k % health.every == 0 || s.steps_per(c.prof_k * s.profile_every) <= k ||
+           s.steps_per(c.snap_k * s.snapshot_every) <= k || checkpoints.front().may_act_at(k) ||
+           (progress && k % 200 == 0);
   };
-  // The XDMF description beside the output (io/xdmf.hpp) is rewritten after
+  // The XDMF description beside each output (io/xdmf.hpp) is rewritten after
   // each checkpoint and where the run ends: at its last step, on SIGINT or
   // SIGTERM (Interrupted), or when it stops unstable (UnstableError).
-  run_loop(out, progress, [&] {
+  run_loop(outs, progress, [&] {
     for (long k = start; k < total;) {
       const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
-      sim.advance(next - k);
+      if (driver)
+        driver->advance(next - k);
+      else
+        sim.advance(next - k);
       k = next;
       const bool fin = k == total;
-      if (k % health.every == 0 || fin) check_health(sim, health);
-      observe(fin);
-      const long saved = checkpoints.written();
-      checkpoints.after_step(sim, out, {snap_k, prof_k}, fin);
-      if (out && checkpoints.written() != saved && !fin) out->write_xdmf();  // current with the checkpoint
+      if (k % health.every == 0 || fin) {
+        if (driver)
+          driver->check_health(health);
+        else
+          check_health(sim, health);
+      }
+      for (std::size_t r = 0; r < members; ++r) observe(r, fin);
+      // Every member checkpoints before a stop signal ends the run.
+      std::optional<Interrupted> stop;
+      for (std::size_t r = 0; r < members; ++r) {
+        const Sim& v = *sims[r];
+        H5Output* out = ms[r].out;
+        const long saved = checkpoints[r].written();
+        try {
+          if (driver)
+            checkpoints[r].after_step(v, out, {cs[r].snap_k, cs[r].prof_k}, fin,
+                                      [&](CheckpointData& c) { driver->capture(r, c); });
+          else
+            checkpoints[r].after_step(v, out, {cs[r].snap_k, cs[r].prof_k}, fin);
+        } catch (const Interrupted& e) {
+          if (!stop) stop = e;
+        }
+        if (out && checkpoints[r].written() != saved && !fin) out->write_xdmf();  // current with the checkpoint
+      }
+      if (stop) throw *stop;
       if (progress && (k % 200 == 0 || fin)) {
         const auto now = std::chrono::steady_clock::now();
         if (now - last_print > std::chrono::milliseconds(500) || fin) {
@@ -195,7 +257,12 @@ RunReport run_impl(const DrumScene& s, Sim& sim, H5Output* out, bool progress, c
       }
     }
   });
-  return run_report(sim, std::max(0L, total - start), t0, checkpoints.written());
+  long written = 0;
+  for (const Checkpointer& c : checkpoints) written += c.written();
+  RunReport r = run_report(sim, std::max(0L, total - start), t0, written);
+  r.particles = n;
+  r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(r.steps) * n / r.seconds : 0.0;
+  return r;
 }
 
 }  // namespace
@@ -235,7 +302,16 @@ std::vector<double> axial_small_fraction(const ParticleStore<3>& p, const std::v
 }
 
 RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progress, const RunControl& ctl) {
-  return std::visit([&](auto& v) { return run_impl(s, v, out, progress, ctl); }, sim);
+  std::vector<DrumMember> ms{{&sim, out, ctl}};
+  return std::visit(
+      [&](auto& v) { return run_impl<std::decay_t<decltype(v)>>(s, ms, nullptr, progress); }, sim);
+}
+
+RunReport run_drums(const DrumScene& s, std::vector<DrumMember>& members, DrumDriver& driver, bool progress) {
+  if (members.empty()) throw std::logic_error("run_drums: no member");
+  return std::visit(
+      [&](auto& v) { return run_impl<std::decay_t<decltype(v)>>(s, members, &driver, progress); },
+      *members.front().sim);
 }
 
 DrumSim settle_drum(const DrumScene& s, double settle) {

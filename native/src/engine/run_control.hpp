@@ -10,6 +10,7 @@
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/checkpoint.hpp"
@@ -55,21 +56,29 @@ long next_stop(long k, double t, double dt, long last, Acts&& acts) {
   }
 }
 
-// Before a run loop: the state and output counters from ctl.resume, or else
-// the run's first output. Returns the step the loop continues after.
-template <class Sim, class FirstOutput>
+// Before a run loop: the state and output counters from ctl.resume (put into
+// sim by restore_from(checkpoint)), or else the run's first output. Returns
+// the step the loop continues after.
+template <class Sim, class FirstOutput, class Restore>
 long begin_run(Sim& sim, const RunControl& ctl, std::initializer_list<long*> counters, const char* kind,
-               FirstOutput first_output) {
+               FirstOutput first_output, Restore restore_from) {
   if (!ctl.resume) {
     first_output();
     return 0;
   }
-  restore(sim, *ctl.resume);
+  restore_from(*ctl.resume);
   if (ctl.resume->counters.size() != counters.size())
     throw std::runtime_error(ctl.checkpoint + ": not a " + kind + " checkpoint");
   auto saved = ctl.resume->counters.begin();
   for (long* c : counters) *c = *saved++;
   return sim.step_count;
+}
+
+// The same, restoring the simulation itself (engine/checkpoint.hpp, restore).
+template <class Sim, class FirstOutput>
+long begin_run(Sim& sim, const RunControl& ctl, std::initializer_list<long*> counters, const char* kind,
+               FirstOutput first_output) {
+  return begin_run(sim, ctl, counters, kind, first_output, [&](const CheckpointData& c) { restore(sim, c); });
 }
 
 struct RunReport {
@@ -95,20 +104,26 @@ std::chrono::steady_clock::time_point start_loop(Sim& sim, H5Output* out) {
   return std::chrono::steady_clock::now();
 }
 
-// A run's loop, and where it ends: the XDMF description beside the output
+// A run's loop, and where it ends: the XDMF description beside each output
 // (io/xdmf.hpp) is rewritten at the last step and on the way out of an
 // interruption (SIGINT, SIGTERM: Interrupted) or an instability
 // (UnstableError); the progress line is closed.
 template <class Loop>
-void run_loop(H5Output* out, bool progress, Loop&& loop) {
+void run_loop(const std::vector<H5Output*>& outs, bool progress, Loop&& loop) {
   try {
     loop();
   } catch (...) {
-    if (out) out->write_xdmf();
+    for (H5Output* out : outs)
+      if (out) out->write_xdmf();
     throw;
   }
-  if (out) out->write_xdmf();
+  for (H5Output* out : outs)
+    if (out) out->write_xdmf();
   if (progress) std::fprintf(stderr, "\n");
+}
+template <class Loop>
+void run_loop(H5Output* out, bool progress, Loop&& loop) {
+  run_loop(std::vector<H5Output*>{out}, progress, std::forward<Loop>(loop));
 }
 
 // The report of a run of `steps` steps begun at t0 (now ended).
@@ -133,6 +148,13 @@ class Checkpointer {
   // final step, or when a stop was requested (then throws Interrupted).
   template <class Sim>
   void after_step(const Sim& sim, const H5Output* out, std::initializer_list<std::int64_t> counters, bool final_step) {
+    after_step(sim, out, counters, final_step, [&](CheckpointData& c) { capture(sim, c); });
+  }
+  // The same, the state captured by capture_into(c) (a state held elsewhere:
+  // the GPU path, gpu/drum_run.hpp).
+  template <class Sim, class Capture>
+  void after_step(const Sim& sim, const H5Output* out, std::initializer_list<std::int64_t> counters, bool final_step,
+                  Capture capture_into) {
     const int sig = stop_signal();
     if (ctl_.checkpoint.empty()) {
       if (sig) throw Interrupted(interrupted_message(sim, sig, false), sig);
@@ -145,7 +167,7 @@ class Checkpointer {
     }
     if (!due) return;
     CheckpointData c = ctl_.meta;
-    capture(sim, c);
+    capture_into(c);
     c.counters = counters;
     if (out) c.rows = out->rows();
     write_checkpoint(ctl_.checkpoint, c);

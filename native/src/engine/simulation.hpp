@@ -251,6 +251,18 @@ class Simulation {
   // evaluated, so it holds every pair in range however far a particle moved.
   double max_step_move() const { return std::min(0.5 * d_min_, max_speed * integrator.dt); }
 
+  // Throws the UnstableError a step that moved a particle further than
+  // max_step_move (or made one's state not finite) raises, naming the
+  // culprit from the current state, which is that step's after its first
+  // stage, before it is counted. For a state stepped elsewhere (the GPU
+  // path, gpu/drum_run.hpp) that found the step unstable.
+  [[noreturn]] void report_unstable_step() const {
+    Stats st;
+    st.max_step2 = std::numeric_limits<double>::infinity();
+    check_stable(st);
+    throw std::logic_error("report_unstable_step: the state is stable");
+  }
+
  private:
   using Gate = typename Team::Gate;
 

@@ -14,10 +14,16 @@ std::string cuda_unavailable() {
   return "";
 }
 
-std::unique_ptr<DrumStepper> make_cuda_drum(const DrumModel& m) {
+std::size_t cuda_free_bytes() {
+  std::size_t free = 0, total = 0;
+  check(cudaMemGetInfo(&free, &total), "cudaMemGetInfo");
+  return free;
+}
+
+std::unique_ptr<DrumStepper> make_cuda_drum(const std::vector<DrumModel>& replicas) {
   const std::string why = cuda_unavailable();
   if (!why.empty()) throw std::runtime_error(why);
-  return cuda::make_drum_stepper(m);
+  return cuda::make_drum_stepper(replicas);
 }
 
 }  // namespace granular::gpu

@@ -7,12 +7,20 @@
 //
 // The interface is backend-neutral: a DrumModel (everything a step needs, as
 // plain values, taken from a CPU drum simulation so that both start from the
-// same scene path and the same state) and a DrumStepper that advances it.
+// same scene path and the same state) and a DrumStepper that advances one or
+// several of them (replicas: independent drums side by side in the same
+// arrays, each kernel launched once for all).
 #pragma once
+#include <algorithm>
 #include <array>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 #include "boundary/cylinder_wall.hpp"
 #include "contact/laws.hpp"
@@ -41,33 +49,106 @@ struct DrumModel {
   double skin = 0.0;                    // neighbour-list skin
   double time = 0.0;                    // of the state below
   long step_count = 0;
+  // The longest move a particle may make in one step (Simulation::max_step_move:
+  // half the smallest diameter, or the scene's speed limit times dt); a step
+  // that moves one further stops the stepper (StepUnstable).
+  double max_step_move = std::numeric_limits<double>::infinity();
   ParticleStore<3> p;  // the state, in the order the stepper keeps
+  // Empty: a new start (the list is built from p.x and the forces computed).
+  // Otherwise a resumed one: the positions the neighbour list was last built
+  // from (the list is rebuilt from them, row for row the list in use), and
+  // p.f, p.tq are the last step's forces, used as they are.
+  Column<Eigen::Vector3d> x_ref;
 };
 
-// Advances a DrumModel's state on one backend.
+// A step moved a particle of replica `replica` further than max_step_move,
+// or made a position or velocity not finite. The stepper stops after that
+// step's first stage (its drift), before the step is counted: the state it
+// holds is the one the CPU engine's check (Simulation::report_unstable_step)
+// names the culprit from.
+class StepUnstable : public std::runtime_error {
+ public:
+  explicit StepUnstable(int replica)
+      : std::runtime_error("GPU drum: replica " + std::to_string(replica) + " is unstable"), replica(replica) {}
+  int replica;
+};
+
+// Advances the state of one or several DrumModels (replicas) on one backend.
+// The replicas share everything but their particles (one scene, several
+// seeds); each is stepped as it would be alone: its neighbour list is rebuilt
+// when its own particles have moved far enough, from its own reference
+// positions, so replica k gives the bits a stepper of replica k alone gives.
 class DrumStepper {
  public:
   virtual ~DrumStepper() = default;
   // n steps of the leapfrog (integrate/leapfrog.hpp): at the end the
   // velocities are those of the full step, as after Simulation::advance.
+  // Throws StepUnstable (the state as it describes) or std::runtime_error.
   virtual void advance(long n) = 0;
-  // The state (x, v, w, f, tq) into p, which holds the model's particles in
-  // the model's order.
-  virtual void download(ParticleStore<3>& p) const = 0;
+  // Replica r's state (x, v, w, f, tq) into p, which holds that model's
+  // particles in the model's order.
+  virtual void download(ParticleStore<3>& p, int r = 0) const = 0;
+  // Replica r's positions at its last neighbour-list build (the checkpoint's x_ref).
+  virtual Column<Eigen::Vector3d> reference_positions(int r = 0) const = 0;
+  // Per replica, the largest overlap of a listed pair in range as a fraction
+  // of its contact distance Law::range(d_i, d_j) (engine/health.hpp's
+  // measure), +infinity where a position or velocity is not finite; -infinity
+  // where no listed pair is in range.
+  virtual std::vector<double> worst_overlap() = 0;
+  virtual int replicas() const = 0;
   virtual double time() const = 0;
   virtual long step_count() const = 0;
-  virtual long builds() const = 0;             // neighbour-list builds so far
+  virtual long builds() const = 0;             // neighbour-list builds so far (any replica's)
   virtual const char* backend() const = 0;     // "host" or "cuda"
 };
 
 // The kernels built by the host compiler, run as loops on the CPU (gpu/drum_host.cpp).
 std::unique_ptr<DrumStepper> make_host_drum(const DrumModel& m);
+std::unique_ptr<DrumStepper> make_host_drum(const std::vector<DrumModel>& replicas);
 
 #if defined(GRANULAR_HAVE_CUDA)
 // The kernels built by nvcc, run on the first visible CUDA device (gpu/drum_cuda.cu).
-std::unique_ptr<DrumStepper> make_cuda_drum(const DrumModel& m);
+std::unique_ptr<DrumStepper> make_cuda_drum(const std::vector<DrumModel>& replicas);
 // Empty if a CUDA device is visible, else why not (one line).
 std::string cuda_unavailable();
+// The free memory of the first visible CUDA device (cudaMemGetInfo).
+std::size_t cuda_free_bytes();
 #endif
+
+// The device memory a GPU drum needs, as the stepper (gpu/drum_kernels.hpp)
+// allocates it: per particle the state (x, v, w, f, tq, d, 1/m, 1/I, the
+// list's reference positions, two reductions' inputs: 23 doubles), the
+// species, replica and cell-sort words (7 four-byte words) and the sort's
+// temporary storage (cub's radix sort: about two keys and two values per
+// particle), per cell of every replica its range (two words), and the full
+// neighbour list, list_columns four-byte indices per particle.
+struct DeviceSizing {
+  std::size_t particles = 0;     // all replicas together
+  std::size_t cells = 0;         // all replicas together
+  std::size_t list_columns = 0;  // per particle
+};
+std::size_t device_bytes(const DeviceSizing& z);
+
+// The list columns a drum's particles are expected to need: the particles
+// whose centres lie within `reach` (the largest contact range plus the skin)
+// of a particle's, in a random close packing (volume fraction 0.64) of the
+// smallest diameter d_min, with the stepper's margin (a quarter more, and 8).
+std::size_t expected_list_columns(double reach, double d_min);
+
+// The cells of each replica's grid along each axis: at least the widest
+// particle's range plus the skin wide; a periodic axis too short for three
+// cells is one cell (neighbor/cell_list.hpp's rule; the stepper's grid).
+inline std::array<int, 3> cell_counts(const DrumModel& m, double min_cell) {
+  std::array<int, 3> c{};
+  for (int a = 0; a < 3; ++a) {
+    const double len = m.hi[a] - m.lo[a];
+    c[a] = std::max(1, static_cast<int>(len / min_cell));
+    if (m.periodic[a] && c[a] < 3) c[a] = 1;
+  }
+  return c;
+}
+
+// The sizing of replicas of m (each m.p.size() particles).
+DeviceSizing drum_sizing(const DrumModel& m, int replicas);
 
 }  // namespace granular::gpu

@@ -6,6 +6,10 @@
 
 namespace granular::gpu {
 
-std::unique_ptr<DrumStepper> make_host_drum(const DrumModel& m) { return host::make_drum_stepper(m); }
+std::unique_ptr<DrumStepper> make_host_drum(const std::vector<DrumModel>& replicas) {
+  return host::make_drum_stepper(replicas);
+}
+
+std::unique_ptr<DrumStepper> make_host_drum(const DrumModel& m) { return make_host_drum(std::vector<DrumModel>{m}); }
 
 }  // namespace granular::gpu

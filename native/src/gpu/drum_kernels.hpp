@@ -9,11 +9,17 @@
 // Leapfrog<3> (integrate/leapfrog.hpp), CylinderWall and PeriodicAxes:
 //
 //   stage 1     v += (dt/2) a;  r += dt v, wrapped along the periodic axis;
-//               the squared displacement since the last list build
-//   rebuild     if the largest displacement exceeds skin/2: particles sorted
-//               by cell (sort_pairs), each cell's range in the sorted order,
-//               then every particle lists every neighbour within
-//               range + skin (a full list, in the order of the cell stencil)
+//               the squared displacement since the last list build, and
+//               whether this step's move stayed within max_step_move
+//   rebuild     for each replica whose largest displacement exceeds skin/2,
+//               the reference positions are set to the current ones; then
+//               particles are sorted by cell of their reference position
+//               (sort_pairs, the cells keyed by replica), each cell's range
+//               in the sorted order, and every particle lists every
+//               neighbour of its replica within range + skin of the
+//               reference positions (a full list, in the order of the cell
+//               stencil): a replica's list depends on its own reference
+//               positions only
 //   forces      each particle: the cylinder's contact through the law's
 //               wall_lane (the wall's geometry from CylinderWall::geometry),
 //               then its side of each listed pair in range through the law's
@@ -71,7 +77,7 @@ struct DrumArrays {
   const double* inv_i;
   const std::int32_t* species;
   double* x_ref;  // positions at the last list build
-  double* disp2;  // squared displacement since then
+  double* disp2;  // squared displacement since then (+infinity: an unstable step)
   unsigned n;
 };
 
@@ -143,25 +149,30 @@ struct Kick {
 
 // Stage 1: a kick, then the drift and the periodic wrap (Leapfrog's
 // kicks_then_drift), and the squared displacement since the list's build
-// (minimum image; a non-finite one as +infinity, which the stepper reports).
+// (minimum image). +infinity instead where the step's move is longer than
+// max_step_move or not finite (Simulation's stability test), which the
+// stepper reports.
 struct KickDrift {
   Kick k;
   Box box;
+  double step_lim2;  // max_step_move squared
 
   GRANULAR_HD void operator()(unsigned i) const {
     k.kick(i);
     const DrumArrays& s = k.s;
     const unsigned n = s.n;
-    double dr[3];
+    double dr[3], step[3];
     for (int a = 0; a < 3; ++a) {
-      const double step = k.dt * s.v[a * n + i];
-      const double x = box.wrapped(s.x[a * n + i] + step, a);
+      step[a] = k.dt * s.v[a * n + i];
+      const double x = box.wrapped(s.x[a * n + i] + step[a], a);
       s.x[a * n + i] = x;
       dr[a] = x - s.x_ref[a * n + i];
     }
     box.min_image(dr);
     const double d2 = dr[0] * dr[0] + dr[1] * dr[1] + dr[2] * dr[2];
-    s.disp2[i] = d2 <= std::numeric_limits<double>::max() ? d2 : std::numeric_limits<double>::infinity();
+    const double s2 = step[0] * step[0] + step[1] * step[1] + step[2] * step[2];
+    const bool fine = d2 <= std::numeric_limits<double>::max() && s2 <= step_lim2;
+    s.disp2[i] = fine ? d2 : std::numeric_limits<double>::infinity();
   }
 };
 
@@ -185,25 +196,31 @@ struct CellGrid {
   GRANULAR_HD unsigned index(int q0, int q1, int q2) const {
     return (static_cast<unsigned>(q1) * n[0] + static_cast<unsigned>(q0)) * n[2] + static_cast<unsigned>(q2);
   }
-  unsigned cells() const { return static_cast<unsigned>(n[0]) * n[1] * n[2]; }
+  // Cells per replica.
+  GRANULAR_HD unsigned cells() const { return static_cast<unsigned>(n[0]) * n[1] * n[2]; }
 };
 
-// Each particle's cell and its index (the values the sort carries), and the
-// positions the list is built from.
+// The positions the list is built from: the current ones for the particles
+// of the replicas that rebuild (renew[r] != 0), the last build's for the
+// others; then each particle's cell of its reference position, keyed by
+// replica, and its index (the values the sort carries).
 struct CellOf {
   DrumArrays s;
   CellGrid grid;
+  const std::uint32_t* replica;
+  const std::uint32_t* renew;
   std::uint32_t* cell;
   std::uint32_t* index;
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
+    const bool moved = renew[replica[i]] != 0;
     int q[3];
     for (int a = 0; a < 3; ++a) {
-      q[a] = grid.coord(s.x[a * n + i], a);
-      s.x_ref[a * n + i] = s.x[a * n + i];
+      if (moved) s.x_ref[a * n + i] = s.x[a * n + i];
+      q[a] = grid.coord(s.x_ref[a * n + i], a);
     }
-    cell[i] = grid.index(q[0], q[1], q[2]);
+    cell[i] = replica[i] * grid.cells() + grid.index(q[0], q[1], q[2]);
     index[i] = i;
   }
 };
@@ -232,17 +249,19 @@ struct Clear {
   }
 };
 
-// Particle i's full neighbour list: every j != i within range(d_i, d_j) +
-// skin, from the 27 cells around i's (fewer at a non-periodic edge or on a
-// collapsed axis), in a fixed order: the cells by offset, each cell's
-// particles by index. Column m of row i is nbr[m * n + i] (neighbouring
-// threads write neighbouring words); count[i] is the row's length, which
-// may exceed cap: then the caller enlarges the list and builds again.
+// Particle i's full neighbour list: every j != i of i's replica within
+// range(d_i, d_j) + skin at the reference positions, from the 27 cells
+// around i's (fewer at a non-periodic edge or on a collapsed axis), in a
+// fixed order: the cells by offset, each cell's particles by index. Column m
+// of row i is nbr[m * n + i] (neighbouring threads write neighbouring
+// words); count[i] is the row's length, which may exceed cap: then the
+// caller enlarges the list and builds again.
 template <class Law>
 struct ListNeighbors {
   DrumArrays s;
   Box box;
   CellGrid grid;
+  const std::uint32_t* replica;
   double skin;
   const std::uint32_t* start;
   const std::uint32_t* end;
@@ -253,8 +272,10 @@ struct ListNeighbors {
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
-    const double xi[3] = {s.x[i], s.x[n + i], s.x[2 * n + i]};
+    const double* xr = s.x_ref;
+    const double xi[3] = {xr[i], xr[n + i], xr[2 * n + i]};
     const double di = s.d[i];
+    const std::uint32_t base = replica[i] * grid.cells();
     int q[3], first[3], last[3];
     for (int a = 0; a < 3; ++a) {
       q[a] = grid.coord(xi[a], a);
@@ -275,12 +296,12 @@ struct ListNeighbors {
           const int c0 = (q[0] + o0 + grid.n[0]) % grid.n[0];
           const int c1 = (q[1] + o1 + grid.n[1]) % grid.n[1];
           const int c2 = (q[2] + o2 + grid.n[2]) % grid.n[2];
-          const std::uint32_t c = grid.index(c0, c1, c2);
+          const std::uint32_t c = base + grid.index(c0, c1, c2);
           for (std::uint32_t k = start[c], ke = end[c]; k < ke; ++k) {
             const std::uint32_t j = sorted[k];
             if (j == i) continue;
             double dr[3];
-            for (int a = 0; a < 3; ++a) dr[a] = xi[a] - s.x[a * n + j];
+            for (int a = 0; a < 3; ++a) dr[a] = xi[a] - xr[a * n + j];
             box.min_image(dr);
             const double r2 = dr[0] * dr[0] + dr[1] * dr[1] + dr[2] * dr[2];
             const double rc = Law::range(di, s.d[j]) + skin;
@@ -329,63 +350,132 @@ struct Forces {
   }
 };
 
-// The stepper: the state in DeviceArrays and the step above.
+// Particle i's worst overlap over its listed pairs in range, as a fraction
+// of the contact distance, (range - r) / range with r the centres' distance
+// (engine/health.hpp's measure; -infinity without one), or +infinity if its
+// position or velocity is not finite.
+template <class Law>
+struct WorstOverlap {
+  DrumArrays s;
+  Box box;
+  const std::uint32_t* nbr;
+  const std::uint32_t* count;
+  double* out;
+
+  GRANULAR_HD void operator()(unsigned i) const {
+    const unsigned n = s.n;
+    // v - v is 0 for a finite v, NaN for an infinite or NaN one.
+    double zero = 0.0;
+    for (int a = 0; a < 3; ++a)
+      zero += (s.x[a * n + i] - s.x[a * n + i]) + (s.v[a * n + i] - s.v[a * n + i]) + (s.w[a * n + i] - s.w[a * n + i]);
+    if (!(zero == 0.0)) {
+      out[i] = std::numeric_limits<double>::infinity();
+      return;
+    }
+    double worst = -std::numeric_limits<double>::infinity();
+    for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
+      const unsigned j = nbr[m * n + i];
+      double dr[3];
+      for (int a = 0; a < 3; ++a) dr[a] = s.x[a * n + i] - s.x[a * n + j];
+      box.min_image(dr);
+      const double r = std::sqrt(dr[0] * dr[0] + dr[1] * dr[1] + dr[2] * dr[2]);
+      const double rc = Law::range(s.d[i], s.d[j]);
+      const double ov = (rc - r) / rc;
+      if (r < rc && ov > worst) worst = ov;
+    }
+    out[i] = worst;
+  }
+};
+
+// The stepper: the state of one or several replicas in DeviceArrays (the
+// replicas' particles one after another) and the step above.
 template <class Law>
 class DrumKernels final : public DrumStepper {
  public:
-  DrumKernels(const Law& law, const DrumModel& m)
-      : law_(law), wall_(m.wall), n_(static_cast<unsigned>(m.p.size())), time_(m.time), steps_(m.step_count) {
-    if (m.p.size() >= std::numeric_limits<std::uint32_t>::max())
-      throw std::invalid_argument("GPU drum: too many particles for 32-bit indices");
+  DrumKernels(const Law& law, const std::vector<DrumModel>& ms)
+      : law_(law), wall_(ms.front().wall), time_(ms.front().time), steps_(ms.front().step_count) {
+    const DrumModel& m = ms.front();
+    k_ = static_cast<unsigned>(ms.size());
+    std::size_t total = 0;
+    offsets_.push_back(0);
+    for (const DrumModel& r : ms) {
+      if (r.time != m.time || r.step_count != m.step_count || r.p.size() == 0)
+        throw std::invalid_argument("GPU drum: replicas must start at the same step, each with particles");
+      total += r.p.size();
+      if (total >= std::numeric_limits<std::uint32_t>::max())
+        throw std::invalid_argument("GPU drum: too many particles for 32-bit indices");
+      offsets_.push_back(static_cast<std::uint32_t>(total));
+    }
+    n_ = static_cast<unsigned>(total);
     dt_ = m.dt;
     skin_ = m.skin;
+    step_lim2_ = std::numeric_limits<double>::infinity();
+    for (const DrumModel& r : ms) step_lim2_ = std::min(step_lim2_, r.max_step_move * r.max_step_move);
     for (int a = 0; a < 3; ++a) {
       box_.lo[a] = m.lo[a];
       box_.len[a] = m.hi[a] - m.lo[a];
       box_.inv_len[a] = m.periodic[a] ? 1.0 / box_.len[a] : 0.0;  // Domain::finalize
       g_[a] = m.gravity[a];
     }
-    upload(m.p);
+    upload(ms);
     // Cells sized for the widest particle (the drum has one size class).
     double d_max = 0.0;
-    for (double d : m.p.d) d_max = std::max(d_max, d);
-    const double min_cell = Law::range(d_max, d_max) + skin_;
+    for (const DrumModel& r : ms)
+      for (double d : r.p.d) d_max = std::max(d_max, d);
+    const auto c = cell_counts(m, Law::range(d_max, d_max) + skin_);
     for (int a = 0; a < 3; ++a) {
-      int c = std::max(1, static_cast<int>(box_.len[a] / min_cell));
-      if (m.periodic[a] && c < 3) c = 1;
-      grid_.n[a] = c;
+      grid_.n[a] = c[a];
       grid_.periodic[a] = m.periodic[a];
       grid_.lo[a] = m.lo[a];
-      grid_.width[a] = box_.len[a] / c;
+      grid_.width[a] = box_.len[a] / c[a];
     }
-    if (grid_.cells() >= std::numeric_limits<std::uint32_t>::max() / 2)
+    const std::uint64_t keys = std::uint64_t{grid_.cells()} * k_;
+    if (keys >= std::numeric_limits<std::uint32_t>::max() / 2)
       throw std::invalid_argument("GPU drum: too many cells for 32-bit keys");
     end_bit_ = 1;
-    while ((std::uint64_t{1} << end_bit_) < grid_.cells()) ++end_bit_;
-    cell_start_.resize(grid_.cells());
-    cell_end_.resize(grid_.cells());
+    while ((std::uint64_t{1} << end_bit_) < keys) ++end_bit_;
+    cell_start_.resize(keys);
+    cell_end_.resize(keys);
     cell_.resize(n_);
     index_.resize(n_);
     sorted_cell_.resize(n_);
     sorted_.resize(n_);
     count_.resize(n_);
     disp2_.resize(n_);
-    x_ref_.resize(3 * static_cast<std::size_t>(n_));
+    // A resumed run builds its list from the saved reference positions and
+    // keeps the saved forces; a new one builds from the positions and
+    // computes the forces.
+    const bool resumed = !m.x_ref.empty();
+    renew_host_.assign(k_, resumed ? 0u : 1u);
+    if (resumed) {
+      std::vector<double> h(3 * static_cast<std::size_t>(n_));
+      for (unsigned r = 0; r < k_; ++r) {
+        if (ms[r].x_ref.size() != ms[r].p.size())
+          throw std::invalid_argument("GPU drum: every replica resumes with its reference positions");
+        for (std::size_t i = 0; i < ms[r].p.size(); ++i)
+          for (int a = 0; a < 3; ++a) h[a * n_ + offsets_[r] + i] = ms[r].x_ref[i][a];
+      }
+      x_ref_.upload(h);
+    } else {
+      x_ref_.resize(3 * static_cast<std::size_t>(n_));
+    }
     build();
-    forces();
+    if (!resumed) forces();
     synchronize();
   }
 
   void advance(long steps) override {
     const double lim2 = 0.25 * skin_ * skin_;  // (skin/2)^2
     for (long k = 0; k < steps; ++k) {
-      for_each(n_, KickDrift{kick(), box_});
-      const double moved2 = max_of(disp2_.data(), n_, 0.0, max_d_, scratch_);
-      if (!(moved2 <= std::numeric_limits<double>::max()))
-        throw std::runtime_error("GPU drum: a particle's position is not finite at step " +
-                                 std::to_string(steps_ + 1) + " (t = " + std::to_string(time_ + dt_) +
-                                 "); reduce integrator.dt or check the contact parameters");
-      if (moved2 > lim2) build();
+      for_each(n_, KickDrift{kick(), box_, step_lim2_});
+      segment_max(disp2_.data(), offsets_, offsets_dev_.data(), k_, moved2_, max_d_, scratch_);
+      bool any = false;
+      for (unsigned r = 0; r < k_; ++r) {
+        if (!(moved2_[r] <= std::numeric_limits<double>::max())) throw StepUnstable(static_cast<int>(r));
+        renew_host_[r] = moved2_[r] > lim2;
+        any = any || renew_host_[r];
+      }
+      if (any) build();
       forces();
       for_each(n_, kick());
       time_ += dt_;
@@ -394,19 +484,39 @@ class DrumKernels final : public DrumStepper {
     synchronize();
   }
 
-  void download(ParticleStore<3>& p) const override {
-    if (p.size() != n_) throw std::invalid_argument("GPU drum: download into a store of another size");
+  void download(ParticleStore<3>& p, int r) const override {
+    const unsigned off = offsets_.at(r), len = offsets_.at(r + 1) - off;
+    if (p.size() != len) throw std::invalid_argument("GPU drum: download into a store of another size");
     const auto x = x_.download(), v = v_.download(), w = w_.download(), f = f_.download(), t = t_.download();
-    for (unsigned i = 0; i < n_; ++i)
+    for (unsigned i = 0; i < len; ++i)
       for (int a = 0; a < 3; ++a) {
-        p.x[i][a] = x[a * n_ + i];
-        p.v[i][a] = v[a * n_ + i];
-        p.w[i][a] = w[a * n_ + i];
-        p.f[i][a] = f[a * n_ + i];
-        p.tq[i][a] = t[a * n_ + i];
+        const std::size_t at = static_cast<std::size_t>(a) * n_ + off + i;
+        p.x[i][a] = x[at];
+        p.v[i][a] = v[at];
+        p.w[i][a] = w[at];
+        p.f[i][a] = f[at];
+        p.tq[i][a] = t[at];
       }
   }
 
+  Column<Eigen::Vector3d> reference_positions(int r) const override {
+    const unsigned off = offsets_.at(r), len = offsets_.at(r + 1) - off;
+    const auto h = x_ref_.download();
+    Column<Eigen::Vector3d> out(len);
+    for (unsigned i = 0; i < len; ++i)
+      for (int a = 0; a < 3; ++a) out[i][a] = h[static_cast<std::size_t>(a) * n_ + off + i];
+    return out;
+  }
+
+  std::vector<double> worst_overlap() override {
+    health_.resize(n_);
+    for_each(n_, WorstOverlap<Law>{arrays(), box_, nbr_.data(), count_.data(), health_.data()});
+    std::vector<double> out;
+    segment_max(health_.data(), offsets_, offsets_dev_.data(), k_, out, max_d_, scratch_);
+    return out;
+  }
+
+  int replicas() const override { return static_cast<int>(k_); }
   double time() const override { return time_; }
   long step_count() const override { return steps_; }
   long builds() const override { return builds_; }
@@ -419,38 +529,56 @@ class DrumKernels final : public DrumStepper {
   }
   Kick kick() { return Kick{arrays(), dt_, {g_[0], g_[1], g_[2]}}; }
 
-  // A vector column of the store into a component-major array.
-  static void upload_vectors(const Column<Eigen::Vector3d>& col, DeviceArray<double>& out) {
-    const std::size_t n = col.size();
-    std::vector<double> h(3 * n);
-    for (std::size_t i = 0; i < n; ++i)
-      for (int a = 0; a < 3; ++a) h[a * n + i] = col[i][a];
+  // A vector column of every replica's store into one component-major array.
+  template <class Get>
+  void upload_vectors(const std::vector<DrumModel>& ms, Get get, DeviceArray<double>& out) {
+    std::vector<double> h(3 * static_cast<std::size_t>(n_));
+    for (unsigned r = 0; r < k_; ++r) {
+      const auto& col = get(ms[r].p);
+      for (std::size_t i = 0; i < col.size(); ++i)
+        for (int a = 0; a < 3; ++a) h[a * n_ + offsets_[r] + i] = col[i][a];
+    }
     out.upload(h);
   }
-  void upload(const ParticleStore<3>& p) {
-    upload_vectors(p.x, x_);
-    upload_vectors(p.v, v_);
-    upload_vectors(p.w, w_);
-    upload_vectors(p.f, f_);
-    upload_vectors(p.tq, t_);
-    d_.upload(p.d.data(), p.d.size());
-    inv_m_.upload(p.inv_m.data(), p.inv_m.size());
-    inv_i_.upload(p.inv_i.data(), p.inv_i.size());
-    species_.upload(p.species.data(), p.species.size());
+  template <class T, class Get>
+  void upload_scalars(const std::vector<DrumModel>& ms, Get get, DeviceArray<T>& out) {
+    std::vector<T> h;
+    h.reserve(n_);
+    for (const DrumModel& r : ms)
+      for (const auto& e : get(r.p)) h.push_back(static_cast<T>(e));
+    out.upload(h);
+  }
+  void upload(const std::vector<DrumModel>& ms) {
+    upload_vectors(ms, [](const ParticleStore<3>& p) -> const auto& { return p.x; }, x_);
+    upload_vectors(ms, [](const ParticleStore<3>& p) -> const auto& { return p.v; }, v_);
+    upload_vectors(ms, [](const ParticleStore<3>& p) -> const auto& { return p.w; }, w_);
+    upload_vectors(ms, [](const ParticleStore<3>& p) -> const auto& { return p.f; }, f_);
+    upload_vectors(ms, [](const ParticleStore<3>& p) -> const auto& { return p.tq; }, t_);
+    upload_scalars<double>(ms, [](const ParticleStore<3>& p) -> const auto& { return p.d; }, d_);
+    upload_scalars<double>(ms, [](const ParticleStore<3>& p) -> const auto& { return p.inv_m; }, inv_m_);
+    upload_scalars<double>(ms, [](const ParticleStore<3>& p) -> const auto& { return p.inv_i; }, inv_i_);
+    upload_scalars<std::int32_t>(ms, [](const ParticleStore<3>& p) -> const auto& { return p.species; }, species_);
+    std::vector<std::uint32_t> rep(n_);
+    for (unsigned r = 0; r < k_; ++r)
+      for (std::uint32_t i = offsets_[r]; i < offsets_[r + 1]; ++i) rep[i] = r;
+    replica_.upload(rep);
+    offsets_dev_.upload(offsets_);
   }
 
-  // The cell sort and the full list, from the current positions; the list
-  // grows until every row fits.
+  // The cell sort and the full list from the reference positions, renewed
+  // for the replicas marked in renew_host_; the list grows until every row
+  // fits.
   void build() {
     const DrumArrays s = arrays();
-    for_each(n_, CellOf{s, grid_, cell_.data(), index_.data()});
+    renew_.upload(renew_host_);
+    for_each(n_, CellOf{s, grid_, replica_.data(), renew_.data(), cell_.data(), index_.data()});
     sort_pairs(cell_.data(), sorted_cell_.data(), index_.data(), sorted_.data(), n_, end_bit_, scratch_);
-    for_each(grid_.cells(), Clear{cell_start_.data(), cell_end_.data()});
+    for_each(static_cast<unsigned>(cell_start_.size()), Clear{cell_start_.data(), cell_end_.data()});
     for_each(n_, CellRanges{sorted_cell_.data(), cell_start_.data(), cell_end_.data(), n_});
     while (true) {
       nbr_.resize(static_cast<std::size_t>(cap_) * n_);
-      for_each(n_, ListNeighbors<Law>{s, box_, grid_, skin_, cell_start_.data(), cell_end_.data(), sorted_.data(),
-                                      nbr_.data(), count_.data(), cap_});
+      for_each(n_, ListNeighbors<Law>{s, box_, grid_, replica_.data(), skin_, cell_start_.data(), cell_end_.data(),
+                                      sorted_.data(), nbr_.data(), count_.data(), cap_});
       const std::uint32_t longest = max_of(count_.data(), n_, std::uint32_t{0}, max_count_, scratch_);
       if (longest <= cap_) break;
       cap_ = longest + longest / 4 + 8;
@@ -462,30 +590,36 @@ class DrumKernels final : public DrumStepper {
 
   Law law_;
   CylinderWall wall_;
-  unsigned n_;
+  unsigned n_ = 0, k_ = 1;
+  std::vector<std::uint32_t> offsets_;     // replica r: particles [offsets_[r], offsets_[r + 1])
+  std::vector<std::uint32_t> renew_host_;  // per replica: its reference positions are renewed at the next build
+  std::vector<double> moved2_;             // per replica: the step's largest squared displacement
   double time_;
   long steps_;
   long builds_ = 0;
-  double dt_ = 0.0, skin_ = 0.0;
+  double dt_ = 0.0, skin_ = 0.0, step_lim2_ = 0.0;
   double g_[3] = {0.0, 0.0, 0.0};
   Box box_{};
   CellGrid grid_{};
   int end_bit_ = 1;
   unsigned cap_ = 32;  // list columns per particle
-  DeviceArray<double> x_, v_, w_, f_, t_, d_, inv_m_, inv_i_, x_ref_, disp2_, max_d_;
+  DeviceArray<double> x_, v_, w_, f_, t_, d_, inv_m_, inv_i_, x_ref_, disp2_, max_d_, health_;
   DeviceArray<std::int32_t> species_;
   DeviceArray<std::uint32_t> cell_, index_, sorted_cell_, sorted_, cell_start_, cell_end_, nbr_, count_, max_count_;
+  DeviceArray<std::uint32_t> replica_, renew_, offsets_dev_;
   Scratch scratch_;
 };
 
-// A stepper for the model's law, in this build.
-inline std::unique_ptr<DrumStepper> make_drum_stepper(const DrumModel& m) {
+// A stepper for the replicas' law (the first's: the replicas are one scene),
+// in this build.
+inline std::unique_ptr<DrumStepper> make_drum_stepper(const std::vector<DrumModel>& ms) {
+  if (ms.empty()) throw std::invalid_argument("GPU drum: no replica to step");
   return std::visit(
       [&](const auto& law) -> std::unique_ptr<DrumStepper> {
         using Law = std::decay_t<decltype(law)>;
-        return std::make_unique<DrumKernels<Law>>(law, m);
+        return std::make_unique<DrumKernels<Law>>(law, ms);
       },
-      m.law);
+      ms.front().law);
 }
 
 }  // namespace GRANULAR_EXEC_NS

@@ -9,6 +9,8 @@
 //   sort_pairs           a stable sort of (key, value) pairs by key:
 //                        cub::DeviceRadixSort, or std::stable_sort
 //   max_of               the largest element: cub::DeviceReduce::Max, or a loop
+//   segment_max          the largest element of each of several consecutive
+//                        segments: cub::DeviceSegmentedReduce::Max, or loops
 //
 // A functor f has a `GRANULAR_HD void operator()(unsigned i) const` and holds
 // raw pointers into DeviceArrays (trivially copyable, passed by value to the
@@ -31,6 +33,7 @@
 
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_reduce.cuh>
+#include <cub/device/device_segmented_reduce.cuh>
 #define GRANULAR_EXEC_NS cuda
 #else
 #define GRANULAR_EXEC_NS host
@@ -205,6 +208,37 @@ T max_of(const T* in, unsigned n, T lowest, DeviceArray<T>& out, Scratch& scratc
   T m = lowest;
   for (unsigned i = 0; i < n; ++i) m = std::max(m, in[i]);
   return m;
+#endif
+}
+
+// The largest element of each segment [offsets[k], offsets[k + 1]) of in,
+// k < segments, to the host (out_host, resized): offsets_host on the host,
+// offsets_dev the same on the device; out: `segments` elements of scratch on
+// the device. Every segment holds at least one element.
+template <class T>
+void segment_max(const T* in, const std::vector<std::uint32_t>& offsets_host, const std::uint32_t* offsets_dev,
+                 unsigned segments, std::vector<T>& out_host, DeviceArray<T>& out, Scratch& scratch) {
+  out_host.resize(segments);
+#if defined(__CUDACC__)
+  (void)offsets_host;
+  out.resize(segments);
+  std::size_t bytes = 0;
+  check(cub::DeviceSegmentedReduce::Max(nullptr, bytes, in, out.data(), segments, offsets_dev, offsets_dev + 1),
+        "cub::DeviceSegmentedReduce::Max");
+  if (scratch.size() < bytes) scratch.resize(bytes);
+  check(cub::DeviceSegmentedReduce::Max(scratch.data(), bytes, in, out.data(), segments, offsets_dev,
+                                        offsets_dev + 1),
+        "cub::DeviceSegmentedReduce::Max");
+  out.download(out_host.data());
+#else
+  (void)offsets_dev;
+  (void)out;
+  (void)scratch;
+  for (unsigned k = 0; k < segments; ++k) {
+    T m = in[offsets_host[k]];
+    for (std::uint32_t i = offsets_host[k] + 1; i < offsets_host[k + 1]; ++i) m = std::max(m, in[i]);
+    out_host[k] = m;
+  }
 #endif
 }
 
