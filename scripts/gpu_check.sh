@@ -39,6 +39,12 @@ pack() {
     cp -L "$lib" "$pack/lib/"
   done
   cp -L /lib64/ld-linux-x86-64.so.2 "$pack/lib/ld-linux-x86-64.so.2"
+  # The CUDA driver (libcuda.so.1) is the GPU machine's own, loaded at run
+  # time; the C library's parts it may ask for come from here, so that they
+  # match the carried libc.
+  for lib in libpthread.so.0 libdl.so.2 librt.so.1; do
+    cp -L "/lib/x86_64-linux-gnu/$lib" "$pack/lib/"
+  done
   du -sh "$pack"
 }
 
@@ -47,7 +53,10 @@ run() {
   mkdir -p "$out"
   local root="$PWD"
   export GOMP_SPINCOUNT="${GOMP_SPINCOUNT:-1000}" GRANULAR_SOURCE_DIR="$root"
-  local ld=("$root/$pack/lib/ld-linux-x86-64.so.2" --library-path "$root/$pack/lib")
+  # The carried libraries first; then where the driver's libcuda.so.1 may be
+  # (--library-path replaces LD_LIBRARY_PATH, so it is appended here).
+  local libs="$root/$pack/lib:${LD_LIBRARY_PATH:-}:/usr/local/nvidia/lib64:/usr/local/nvidia/lib"
+  local ld=("$root/$pack/lib/ld-linux-x86-64.so.2" --library-path "$libs")
   local g=("${ld[@]}" "$root/$pack/granular")
   local status=0
   nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv | tee "$out/gpu.txt" || true

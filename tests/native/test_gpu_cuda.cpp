@@ -62,31 +62,39 @@ class GpuDrumCuda : public testing::TestWithParam<std::string> {};
 // One step from the lattice of drum #A at L = 8 (264 particles, every pair
 // and wall contact of the first step), then 200 steps (the collapse: list
 // builds, many contacts): forces, torques, positions, velocities and spins.
+// Two replicas (seeds 1 and 2) in one stepper, so the replicas' cell keys and
+// per-replica list builds run on the device too.
 TEST_P(GpuDrumCuda, GivesTheHostBuildsResults) {
   SKIP_WITHOUT_CUDA_DEVICE();
   constexpr double kTol = 1e-12;
-  const gpu::DrumModel model = drum_a_model({"drum.length=8", "contact.law=" + GetParam()});
-  const auto host = gpu::make_host_drum(model);
-  const auto cuda = gpu::make_cuda_drum(model);
+  std::vector<gpu::DrumModel> models;
+  for (const char* seed : {"particles.seed=1", "particles.seed=2"})
+    models.push_back(drum_a_model({"drum.length=8", "contact.law=" + GetParam(), seed}));
+  const auto host = gpu::make_host_drum(models);
+  const auto cuda = gpu::make_cuda_drum(models);
   EXPECT_STREQ(cuda->backend(), "cuda");
+  ASSERT_EQ(cuda->replicas(), 2);
   for (const long steps : {1L, 199L}) {
     host->advance(steps);
     cuda->advance(steps);
-    ParticleStore<3> h = model.p, c = model.p;
-    host->download(h);
-    cuda->download(c);
     EXPECT_EQ(cuda->step_count(), host->step_count());
     EXPECT_EQ(cuda->builds(), host->builds());
-    const double df = relative_difference(h.f, c.f), dt = relative_difference(h.tq, c.tq);
-    const double dx = relative_difference(h.x, c.x), dv = relative_difference(h.v, c.v),
-                 dw = relative_difference(h.w, c.w);
-    std::printf("%s after %ld steps (%ld list builds): relative differences f %.3g, torque %.3g, x %.3g, v %.3g, w %.3g\n",
-                GetParam().c_str(), host->step_count(), host->builds(), df, dt, dx, dv, dw);
-    EXPECT_LE(df, kTol);
-    EXPECT_LE(dt, kTol);
-    EXPECT_LE(dx, kTol);
-    EXPECT_LE(dv, kTol);
-    EXPECT_LE(dw, kTol);
+    for (int r = 0; r < 2; ++r) {
+      ParticleStore<3> h = models[r].p, c = models[r].p;
+      host->download(h, r);
+      cuda->download(c, r);
+      const double df = relative_difference(h.f, c.f), dt = relative_difference(h.tq, c.tq);
+      const double dx = relative_difference(h.x, c.x), dv = relative_difference(h.v, c.v),
+                   dw = relative_difference(h.w, c.w);
+      std::printf("%s replica %d after %ld steps (%ld list builds): relative differences f %.3g, torque %.3g, "
+                  "x %.3g, v %.3g, w %.3g\n",
+                  GetParam().c_str(), r, host->step_count(), host->builds(), df, dt, dx, dv, dw);
+      EXPECT_LE(df, kTol);
+      EXPECT_LE(dt, kTol);
+      EXPECT_LE(dx, kTol);
+      EXPECT_LE(dv, kTol);
+      EXPECT_LE(dw, kTol);
+    }
   }
 }
 
