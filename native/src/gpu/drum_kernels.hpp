@@ -1,4 +1,4 @@
-// The periodic drum's step as kernels, one source for both builds
+// The drum's step as kernels, one source for both builds
 // (gpu/exec.hpp): nvcc makes them CUDA kernels (gpu/drum_cuda.cu), the host
 // compiler plain loops (gpu/drum_host.cpp). Every kernel is a functor run
 // once per particle, and every particle's thread writes only that particle's
@@ -6,9 +6,10 @@
 // builds evaluate the same operations in the same order.
 //
 // The step, as Simulation::advance (engine/simulation.hpp) takes it with
-// Leapfrog<3> (integrate/leapfrog.hpp), CylinderWall and PeriodicAxes:
+// Leapfrog<3> (integrate/leapfrog.hpp), CylinderWall, and PeriodicAxes or
+// EndCaps:
 //
-//   stage 1     v += (dt/2) a;  r += dt v, wrapped along the periodic axis;
+//   stage 1     v += (dt/2) a;  r += dt v, wrapped along a periodic axis;
 //               the squared displacement since the last list build
 //   rebuild     if the largest displacement exceeds skin/2: particles sorted
 //               by cell (sort_pairs), each cell's range in the sorted order,
@@ -16,15 +17,17 @@
 //               range + skin (a full list, in the order of the cell stencil)
 //   forces      each particle: the cylinder's contact through the law's
 //               wall_lane (the wall's geometry from CylinderWall::geometry),
-//               then its side of each listed pair in range through the law's
+//               with capped ends the caps' (EndCaps::geometry), then its
+//               side of each listed pair in range through the law's
 //               pair_lane, summed in list order (each pair is evaluated
 //               from both sides)
 //   stage 2     v += (dt/2) a
 //
-// The physics is the contact law's lane functions (contact/lane.hpp) and
-// the wall's geometry, called here, not copied. The CPU engine sums a
-// particle's contacts in its half list's order, this path in its full
-// list's, so the two agree to rounding, not bitwise
+// The physics is the contact law's lane functions (contact/lane.hpp), the
+// walls' geometry and the leapfrog's updates (leapfrog_kick, leapfrog_drift),
+// called here, not copied. The CPU engine sums a particle's contacts in its
+// half list's order, this path in its full list's, so the two agree to
+// rounding, not bitwise
 // (tests/native/test_gpu_drum.cpp).
 #pragma once
 #include <algorithm>
@@ -40,6 +43,7 @@
 #include "contact/lane.hpp"
 #include "gpu/drum_gpu.hpp"
 #include "gpu/exec.hpp"
+#include "integrate/leapfrog.hpp"
 
 namespace granular::gpu {
 inline namespace GRANULAR_EXEC_NS {
@@ -122,8 +126,25 @@ GRANULAR_HD bool wall_on_i(const Law& law, const CylinderWall& wall, const DrumA
   return true;
 }
 
-// Half a step's kick from the forces (Leapfrog::kick): the same operations
-// in the same order.
+// A cap's contact with particle i through the law's wall_lane, if the
+// particle is within reach of one (EndCaps::in_reach); returns whether it is.
+template <class Law>
+GRANULAR_HD bool caps_on_i(const Law& law, const EndCaps& caps, const DrumArrays& s, unsigned i, WallForce<3>& o) {
+  const unsigned n = s.n;
+  const double y = s.x[n + i], di = s.d[i];
+  if (!caps.in_reach<Law>(y, di)) return false;
+  WallContact<3> c;
+  caps.geometry(s.x[i], y, s.x[2 * n + i], di, s.v[i], s.v[n + i], s.v[2 * n + i], c.rp, c.v, c.lever, c.d_iw);
+  for (int a = 0; a < 3; ++a) c.w[a] = s.w[a * n + i];
+  c.di = di;
+  c.ci = s.species[i];
+  c.inv_mi = s.inv_m[i];
+  law.wall_lane(c, o);
+  return true;
+}
+
+// Half a step's kick from the forces (Leapfrog::kick: leapfrog_kick and
+// leapfrog_spin_kick).
 struct Kick {
   DrumArrays s;
   double dt;
@@ -133,16 +154,14 @@ struct Kick {
     const unsigned n = s.n;
     const double h = 0.5 * dt;
     const double inv_m = s.inv_m[i], hi = h * s.inv_i[i];
-    for (int a = 0; a < 3; ++a) {
-      s.v[a * n + i] += h * (s.f[a * n + i] * inv_m + g[a]);
-      s.w[a * n + i] += hi * s.t[a * n + i];
-    }
+    for (int a = 0; a < 3; ++a) leapfrog_kick(h, s.f[a * n + i], inv_m, g[a], s.v[a * n + i]);
+    for (int a = 0; a < 3; ++a) leapfrog_spin_kick(hi, s.t[a * n + i], s.w[a * n + i]);
   }
   GRANULAR_HD void operator()(unsigned i) const { kick(i); }
 };
 
-// Stage 1: a kick, then the drift and the periodic wrap (Leapfrog's
-// kicks_then_drift), and the squared displacement since the list's build
+// Stage 1: a kick, then the drift (leapfrog_drift) and the periodic wrap
+// (Leapfrog's kicks_then_drift), and the squared displacement since the list's build
 // (minimum image; a non-finite one as +infinity, which the stepper reports).
 struct KickDrift {
   Kick k;
@@ -154,8 +173,9 @@ struct KickDrift {
     const unsigned n = s.n;
     double dr[3];
     for (int a = 0; a < 3; ++a) {
-      const double step = k.dt * s.v[a * n + i];
-      const double x = box.wrapped(s.x[a * n + i] + step, a);
+      double x = s.x[a * n + i];
+      leapfrog_drift(k.dt, s.v[a * n + i], x);
+      x = box.wrapped(x, a);
       s.x[a * n + i] = x;
       dr[a] = x - s.x_ref[a * n + i];
     }
@@ -294,12 +314,13 @@ struct ListNeighbors {
   }
 };
 
-// Particle i's force and torque: the wall's contact, then its side of every
-// listed pair in range, in list order.
-template <class Law>
+// Particle i's force and torque: the cylinder's contact, the caps' (Capped),
+// then its side of every listed pair in range, in list order.
+template <class Law, bool Capped>
 struct Forces {
   Law law;
   CylinderWall wall;
+  EndCaps caps;
   Box box;
   DrumArrays s;
   const std::uint32_t* nbr;
@@ -314,6 +335,12 @@ struct Forces {
         f[a] += wf.f[a];
         t[a] += wf.t[a];
       }
+    if constexpr (Capped)
+      if (caps_on_i(law, caps, s, i, wf))
+        for (int a = 0; a < 3; ++a) {
+          f[a] += wf.f[a];
+          t[a] += wf.t[a];
+        }
     for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
       PairForce<3> pf;
       if (!pair_on_i(law, box, s, i, nbr[m * n + i], pf)) continue;
@@ -329,12 +356,18 @@ struct Forces {
   }
 };
 
-// The stepper: the state in DeviceArrays and the step above.
-template <class Law>
+// The stepper: the state in DeviceArrays and the step above; Capped: with
+// end caps.
+template <class Law, bool Capped>
 class DrumKernels final : public DrumStepper {
  public:
   DrumKernels(const Law& law, const DrumModel& m)
-      : law_(law), wall_(m.wall), n_(static_cast<unsigned>(m.p.size())), time_(m.time), steps_(m.step_count) {
+      : law_(law),
+        wall_(m.wall),
+        caps_(m.caps),
+        n_(static_cast<unsigned>(m.p.size())),
+        time_(m.time),
+        steps_(m.step_count) {
     if (m.p.size() >= std::numeric_limits<std::uint32_t>::max())
       throw std::invalid_argument("GPU drum: too many particles for 32-bit indices");
     dt_ = m.dt;
@@ -458,10 +491,13 @@ class DrumKernels final : public DrumStepper {
     ++builds_;
   }
 
-  void forces() { for_each(n_, Forces<Law>{law_, wall_, box_, arrays(), nbr_.data(), count_.data()}); }
+  void forces() {
+    for_each(n_, Forces<Law, Capped>{law_, wall_, caps_, box_, arrays(), nbr_.data(), count_.data()});
+  }
 
   Law law_;
   CylinderWall wall_;
+  EndCaps caps_;
   unsigned n_;
   double time_;
   long steps_;
@@ -478,12 +514,13 @@ class DrumKernels final : public DrumStepper {
   Scratch scratch_;
 };
 
-// A stepper for the model's law, in this build.
+// A stepper for the model's law and ends, in this build.
 inline std::unique_ptr<DrumStepper> make_drum_stepper(const DrumModel& m) {
   return std::visit(
       [&](const auto& law) -> std::unique_ptr<DrumStepper> {
         using Law = std::decay_t<decltype(law)>;
-        return std::make_unique<DrumKernels<Law>>(law, m);
+        if (m.capped) return std::make_unique<DrumKernels<Law, true>>(law, m);
+        return std::make_unique<DrumKernels<Law, false>>(law, m);
       },
       m.law);
 }
