@@ -1,6 +1,7 @@
 // The shaken box on the GPU path (docs/gpu.md): Poeschel and Herrmann's
 // (1995) box with walls of particles moved by the shaker (box.walls =
-// "particles"), under every registered box law, with Gear's predictor-
+// "particles") or with smooth walls (box.walls = "smooth",
+// boundary/flat_box_walls.hpp), under every registered box law, with Gear's predictor-
 // corrector or the leapfrog, written once as kernels (gpu/box_kernels.hpp)
 // and built twice: by nvcc into CUDA kernels (gpu/box_cuda.cu, with
 // GRANULAR_HAVE_CUDA) and by the host compiler into plain loops
@@ -15,6 +16,7 @@
 #include <memory>
 #include <string>
 
+#include "boundary/flat_box_walls.hpp"
 #include "contact/laws.hpp"
 #include "core/particles.hpp"
 #include "core/type_list.hpp"
@@ -52,6 +54,10 @@ struct BoxModel {
   // y_box(t): the shaker places the particles of species kWallSpecies at
   // their anchors (by id) displaced by it.
   ShakerMotion<2> shaker;
+  // Smooth walls (box.walls = "smooth"): the walls, moving with `shaker`,
+  // and no wall particles.
+  bool smooth_walls = false;
+  FlatBoxWalls flat;
   double time = 0.0;  // of the state below
   long step_count = 0;
   // The state, in the order the stepper keeps, with Gear's scaled

@@ -7,7 +7,8 @@
 // operations in the same order.
 //
 // The step, as Simulation::advance (engine/simulation.hpp) takes it for the
-// box with walls of particles (engine/box.hpp, ParticleWallBoxOf):
+// box with walls of particles (engine/box.hpp, ParticleWallBoxOf) or smooth
+// walls (SmoothBoxOf):
 //
 //   stage 1     wall particles placed at their anchors displaced by the
 //               shaker's pose at the end of the step (ShakerMotion::place,
@@ -19,15 +20,17 @@
 //               by cell, each cell's range, then every particle lists every
 //               neighbour within range + skin (a full list, in the order of
 //               the cell stencil), no pair of two wall particles
-//   forces      each particle: its side of each listed pair in range
-//               through the law's pair_lane (Eqs. (1)-(6) of
-//               contact/poeschel_herrmann.hpp, or contact/viscel.hpp),
-//               summed in list order
+//   forces      each particle: with smooth walls, the walls' contacts
+//               (flat_box_offsets, the walls at the end of the step); then
+//               its side of each listed pair in range through the law's
+//               pair_lane (Eqs. (1)-(6) of contact/poeschel_herrmann.hpp, or
+//               contact/viscel.hpp), summed in list order
 //   stage 2     every particle but the wall's: Gear's corrector
 //               (gear_correct) or the leapfrog's kick
 //
-// The physics is the law's lane function and the integrators' updates
-// (integrate/gear.hpp, integrate/leapfrog.hpp), called here, not copied. The
+// The physics is the law's lane function, the smooth walls' geometry and the
+// integrators' updates (integrate/gear.hpp, integrate/leapfrog.hpp), called
+// here, not copied. The
 // CPU engine sums a particle's contacts in its half list's order, this path
 // in its full list's, so the two agree to rounding, not bitwise
 // (tests/native/test_gpu_box.cpp).
@@ -42,6 +45,7 @@
 #include <variant>
 #include <vector>
 
+#include "boundary/flat_box_walls.hpp"
 #include "contact/lane.hpp"
 #include "gpu/box_gpu.hpp"
 #include "gpu/exec.hpp"
@@ -97,6 +101,45 @@ GRANULAR_HD bool box_pair_on_i(const Law& law, const BoxArrays& s, unsigned i, u
   c.inv_mj = s.inv_m[j];
   law.pair_lane(c, o);
   return true;
+}
+
+// The smooth walls at one time (FlatBoxWalls::apply's values at y_box(t)):
+// floor_c = y_box - r_w, top_c = y_box + y_top, xc = W/2 + r_w, the walls'
+// velocity dy_box/dt, the virtual wall particle's diameter 2 r_w and inverse
+// mass.
+struct FlatWalls2 {
+  double floor_c, top_c, xc, vy, d_wall, inv_m;
+};
+
+// The smooth walls' contacts with particle i through the law's pair_lane
+// (FlatBoxWalls::touch: the grain against a virtual wall particle), added to
+// f and t in the order floor, left wall, right wall.
+template <class Law>
+GRANULAR_HD void flat_walls_on_i(const Law& law, const FlatWalls2& fw, const BoxArrays& s, unsigned i,
+                                 double (&f)[2], double& t) {
+  const unsigned n = s.n;
+  const double di = s.d[i], rc = Law::range(di, fw.d_wall);
+  flat_box_offsets(s.x[i], s.x[n + i], fw.floor_c, fw.top_c, fw.xc, [&](double dx, double dy) {
+    PairContact<2> c;
+    c.dr[0] = dx;
+    c.dr[1] = dy;
+    c.r2 = dx * dx + dy * dy;
+    if (c.r2 >= rc * rc) return;
+    c.di = di;
+    c.dj = fw.d_wall;
+    c.v[0] = s.v[i] - 0.0;  // v_i - v_j, v_j = (0, dy_box/dt)
+    c.v[1] = s.v[n + i] - fw.vy;
+    c.wi[0] = s.w[i];
+    c.wj[0] = 0.0;
+    c.ci = s.species[i];
+    c.cj = kWallSpecies;
+    c.inv_mi = s.inv_m[i];
+    c.inv_mj = fw.inv_m;
+    PairForce<2> o;
+    law.pair_lane(c, o);
+    for (int a = 0; a < 2; ++a) f[a] += o.f[a];
+    t += o.ti[0];
+  });
 }
 
 // The shaker's pose at one time (ShakerMotion::Pose), as plain values.
@@ -309,11 +352,12 @@ struct BoxListNeighbors {
   }
 };
 
-// Particle i's force and torque: its side of every listed pair in range, in
-// list order.
-template <class Law>
+// Particle i's force and torque: the smooth walls' contacts (Smooth), then
+// its side of every listed pair in range, in list order.
+template <class Law, bool Smooth>
 struct BoxForces {
   Law law;
+  FlatWalls2 walls;
   BoxArrays s;
   const std::uint32_t* nbr;
   const std::uint32_t* count;
@@ -321,6 +365,7 @@ struct BoxForces {
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
     double f[2] = {0.0, 0.0}, t = 0.0;
+    if constexpr (Smooth) flat_walls_on_i(law, walls, s, i, f, t);
     for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
       PairForce<2> pf;
       if (!box_pair_on_i(law, s, i, nbr[m * n + i], pf)) continue;
@@ -333,12 +378,18 @@ struct BoxForces {
 };
 
 // The stepper: the state in DeviceArrays and the step above; Gear: Gear's
-// predictor-corrector, else the leapfrog.
-template <class Law, bool Gear>
+// predictor-corrector, else the leapfrog; Smooth: smooth walls, else walls of
+// particles.
+template <class Law, bool Gear, bool Smooth>
 class BoxKernels final : public BoxStepper {
  public:
   BoxKernels(const Law& law, const BoxModel& m)
-      : law_(law), shaker_(m.shaker), n_(static_cast<unsigned>(m.p.size())), time_(m.time), steps_(m.step_count) {
+      : law_(law),
+        shaker_(m.shaker),
+        flat_(m.flat),
+        n_(static_cast<unsigned>(m.p.size())),
+        time_(m.time),
+        steps_(m.step_count) {
     if (m.p.size() >= std::numeric_limits<std::uint32_t>::max())
       throw std::invalid_argument("GPU box: too many particles for 32-bit indices");
     if (Gear && (m.p.aux_v.size() != 4 || m.p.aux_a.size() != 5))
@@ -396,7 +447,7 @@ class BoxKernels final : public BoxStepper {
                                  std::to_string(steps_ + 1) + " (t = " + std::to_string(t_next) +
                                  "); reduce integrator.dt or check the contact parameters");
       if (moved2 > lim2) build();
-      for_each(n_, BoxForces<Law>{law_, s, nbr_.data(), count_.data()});
+      for_each(n_, BoxForces<Law, Smooth>{law_, walls_at(t_next), s, nbr_.data(), count_.data()});
       if constexpr (Gear)
         for_each(n_, GearCorrect{s, dt_, c0_, {g_[0], g_[1]}});
       else
@@ -426,6 +477,21 @@ class BoxKernels final : public BoxStepper {
   const char* backend() const override { return kBackend; }
 
  private:
+  // The smooth walls at time t (FlatBoxWalls::apply), evaluated on the host.
+  FlatWalls2 walls_at(double t) const {
+    FlatWalls2 w{};
+    if constexpr (Smooth) {
+      const double yb = flat_.shaker.y(t);
+      w.floor_c = yb - flat_.wall_radius;
+      w.top_c = yb + flat_.side_top;
+      w.xc = flat_.half_width + flat_.wall_radius;
+      w.vy = flat_.shaker.vy(t);
+      w.d_wall = 2.0 * flat_.wall_radius;
+      w.inv_m = flat_.wall_inv_mass;
+    }
+    return w;
+  }
+
   BoxArrays arrays() {
     BoxArrays s{x_.data(), v_.data(), w_.data(), f_.data(), t_.data(), d_.data(), inv_m_.data(), inv_i_.data(),
                 species_.data(), anchor_.data(), {}, {}, x_ref_.data(), disp2_.data(), n_};
@@ -502,6 +568,7 @@ class BoxKernels final : public BoxStepper {
 
   Law law_;
   ShakerMotion<2> shaker_;
+  FlatBoxWalls flat_;
   unsigned n_;
   double time_;
   long steps_;
@@ -519,13 +586,18 @@ class BoxKernels final : public BoxStepper {
   Scratch scratch_;
 };
 
-// A stepper for the model's law and integrator, in this build.
+// A stepper for the model's law, integrator and walls, in this build.
 inline std::unique_ptr<BoxStepper> make_box_stepper(const BoxModel& m) {
   return std::visit(
       [&](const auto& law) -> std::unique_ptr<BoxStepper> {
         using Law = std::decay_t<decltype(law)>;
-        if (m.integrator == BoxIntegrator::gear) return std::make_unique<BoxKernels<Law, true>>(law, m);
-        return std::make_unique<BoxKernels<Law, false>>(law, m);
+        const bool gear = m.integrator == BoxIntegrator::gear;
+        if (m.smooth_walls) {
+          if (gear) return std::make_unique<BoxKernels<Law, true, true>>(law, m);
+          return std::make_unique<BoxKernels<Law, false, true>>(law, m);
+        }
+        if (gear) return std::make_unique<BoxKernels<Law, true, false>>(law, m);
+        return std::make_unique<BoxKernels<Law, false, false>>(law, m);
       },
       m.law);
 }

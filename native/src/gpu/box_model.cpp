@@ -1,6 +1,5 @@
 #include "gpu/box_model.hpp"
 
-#include <stdexcept>
 #include <type_traits>
 
 namespace granular::gpu {
@@ -22,32 +21,33 @@ BoxModel box_model(const BoxSim& sim) {
       [](const auto& s) -> BoxModel {
         using Sim = std::decay_t<decltype(s)>;
         using Integrator = std::decay_t<decltype(s.integrator)>;
-        if constexpr (Sim::template kHasWall<FlatBoxWalls>) {
-          throw std::invalid_argument(
-              "the GPU path runs boxes with walls of particles only (box.walls = \"particles\"), not smooth ones");
+        BoxModel m;
+        m.law = s.law;
+        m.dt = s.integrator.dt;
+        if constexpr (IsGear<Integrator>::value) {
+          m.integrator = BoxIntegrator::gear;
+          m.gear_c0 = s.integrator.c0;
         } else {
-          BoxModel m;
-          m.law = s.law;
-          m.dt = s.integrator.dt;
-          if constexpr (IsGear<Integrator>::value) {
-            m.integrator = BoxIntegrator::gear;
-            m.gear_c0 = s.integrator.c0;
-          } else {
-            m.integrator = BoxIntegrator::leapfrog;
-          }
-          for (int a = 0; a < 2; ++a) {
-            m.gravity[a] = s.integrator.gravity[a];
-            m.lo[a] = s.domain.lo[a];
-            m.hi[a] = s.domain.hi[a];
-          }
-          m.skin = s.skin;
-          m.exclude_species = s.exclude_species;
-          m.shaker = s.integrator.motion;
-          m.time = s.time;
-          m.step_count = s.step_count;
-          m.p = s.p;
-          return m;
+          m.integrator = BoxIntegrator::leapfrog;
         }
+        for (int a = 0; a < 2; ++a) {
+          m.gravity[a] = s.integrator.gravity[a];
+          m.lo[a] = s.domain.lo[a];
+          m.hi[a] = s.domain.hi[a];
+        }
+        m.skin = s.skin;
+        m.exclude_species = s.exclude_species;
+        if constexpr (Sim::template kHasWall<FlatBoxWalls>) {
+          m.smooth_walls = true;
+          m.flat = std::get<FlatBoxWalls>(s.walls);
+          m.shaker = m.flat.shaker;
+        } else {
+          m.shaker = s.integrator.motion;
+        }
+        m.time = s.time;
+        m.step_count = s.step_count;
+        m.p = s.p;
+        return m;
       },
       sim);
 }

@@ -7,8 +7,7 @@
 
 namespace granular::gpu {
 
-// The model of a box with walls of particles; throws std::invalid_argument
-// for one the GPU path does not run (smooth walls, box.walls = "smooth").
+// The model of a box, with walls of particles or smooth walls.
 BoxModel box_model(const BoxSim& sim);
 
 }  // namespace granular::gpu
