@@ -30,14 +30,16 @@ namespace granular {
 inline constexpr double kGearC0 = 3.0 / 20.0, kGearC1 = 251.0 / 360.0, kGearC3 = 11.0 / 18.0, kGearC4 = 1.0 / 6.0,
                         kGearC5 = 1.0 / 60.0;
 
-// One coordinate's predictor (the Pascal matrix above): x = r_0, v the
-// velocity (r_1 = dt v), r2..r5 the scaled derivatives; returns the
-// coordinate's step r_1 + r_2 + ... + r_5. An angle takes the same, with
-// phi_0 as x and w as v. Host and device (GRANULAR_HD): the CPU integrator
-// below and the GPU box's kernels (gpu/box_kernels.hpp) call it.
-GRANULAR_HD double gear_predict(double dt, double& x, double& v, double& r2, double& r3, double& r4, double& r5) {
-  const double r1 = dt * v;
-  const double step = r1 + r2 + r3 + r4 + r5;
+// The predictor (the Pascal matrix above): x = r_0, v the velocity
+// (r_1 = dt v), r2..r5 the scaled derivatives; returns the step
+// r_1 + r_2 + ... + r_5. An angle takes the same, with phi_0 as x and w as v.
+// T: one coordinate (double: the GPU box's kernels, gpu/box_kernels.hpp) or
+// a particle's vector (Eigen: the CPU integrator below, in SIMD lanes); the
+// same operations on each component. Host and device (GRANULAR_HD).
+template <class T>
+GRANULAR_HD T gear_predict(double dt, T& x, T& v, T& r2, T& r3, T& r4, T& r5) {
+  const T r1 = dt * v;
+  const T step = r1 + r2 + r3 + r4 + r5;
   x += step;
   v = (r1 + 2.0 * r2 + 3.0 * r3 + 4.0 * r4 + 5.0 * r5) / dt;
   r2 += 3.0 * r3 + 6.0 * r4 + 10.0 * r5;
@@ -46,11 +48,11 @@ GRANULAR_HD double gear_predict(double dt, double& x, double& v, double& r2, dou
   return step;
 }
 
-// One coordinate's corrector: a2 = (dt^2/2) times the acceleration from the
-// forces, D = a2 - r_2, r_k += c_k D (c0: c_0, 3/20 or 3/16).
-GRANULAR_HD void gear_correct(double c0, double dt, double a2, double& x, double& v, double& r2, double& r3,
-                              double& r4, double& r5) {
-  const double d = a2 - r2;
+// The corrector: a2 = (dt^2/2) times the acceleration from the forces,
+// D = a2 - r_2, r_k += c_k D (c0: c_0, 3/20 or 3/16). T as for gear_predict.
+template <class T>
+GRANULAR_HD void gear_correct(double c0, double dt, const T& a2, T& x, T& v, T& r2, T& r3, T& r4, T& r5) {
+  const T d = a2 - r2;
   x += c0 * d;
   v += (kGearC1 / dt) * d;
   r2 += d;
@@ -135,10 +137,9 @@ struct Gear5 {
   // The predictor; returns the position's step.
   template <bool P>
   GRANULAR_INLINE V predict(State& s, const Domain<Dim, P>& domain) const {
-    V step;
-    for (int a = 0; a < Dim; ++a) step[a] = gear_predict(dt, s.x[a], s.v[a], s.r2[a], s.r3[a], s.r4[a], s.r5[a]);
+    const V step = gear_predict(dt, s.x, s.v, s.r2, s.r3, s.r4, s.r5);
     domain.wrap(s.x);
-    for (int a = 0; a < kAngDim<Dim>; ++a) gear_predict(dt, s.q0[a], s.w[a], s.q2[a], s.q3[a], s.q4[a], s.q5[a]);
+    gear_predict(dt, s.q0, s.w, s.q2, s.q3, s.q4, s.q5);
     return step;
   }
 
@@ -146,13 +147,10 @@ struct Gear5 {
   template <bool P>
   GRANULAR_INLINE void correct(State& s, const ParticleStore<Dim>& p, std::size_t i,
                                const Domain<Dim, P>& domain) const {
-    const double h2 = 0.5 * dt * dt, inv_m = p.inv_m[i], hi = h2 * p.inv_i[i];
-    for (int a = 0; a < Dim; ++a)
-      gear_correct(c0, dt, h2 * (p.f[i][a] * inv_m + gravity[a]), s.x[a], s.v[a], s.r2[a], s.r3[a], s.r4[a],
-                   s.r5[a]);
+    const double h2 = 0.5 * dt * dt;
+    gear_correct(c0, dt, V(h2 * (p.f[i] * p.inv_m[i] + gravity)), s.x, s.v, s.r2, s.r3, s.r4, s.r5);
     domain.wrap(s.x);
-    for (int a = 0; a < kAngDim<Dim>; ++a)
-      gear_correct(c0, dt, hi * p.tq[i][a], s.q0[a], s.w[a], s.q2[a], s.q3[a], s.q4[a], s.q5[a]);
+    gear_correct(c0, dt, A((h2 * p.inv_i[i]) * p.tq[i]), s.q0, s.w, s.q2, s.q3, s.q4, s.q5);
   }
 
   // The corrector and/or the predictor on particles [lo, hi). x_ref, t_next
