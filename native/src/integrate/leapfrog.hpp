@@ -21,15 +21,23 @@
 
 namespace granular {
 
-// One component's half kick, v += (dt/2) a with a = f/m + g, and one
-// angular component's, w += ((dt/2)/I) t (h = dt/2, h_inv_i = (dt/2)/I);
-// and one coordinate's drift, x += dt v, returning the step dt v. Host and
-// device (GRANULAR_HD): the CPU integrator below and the GPU path's kernels
-// (gpu/drum_kernels.hpp, gpu/box_kernels.hpp) call these.
-GRANULAR_HD void leapfrog_kick(double h, double f, double inv_m, double g, double& v) { v += h * (f * inv_m + g); }
-GRANULAR_HD void leapfrog_spin_kick(double h_inv_i, double t, double& w) { w += h_inv_i * t; }
-GRANULAR_HD double leapfrog_drift(double dt, double v, double& x) {
-  const double step = dt * v;
+// The half kick, v += (dt/2) a with a = f/m + g, and the angular one,
+// w += ((dt/2)/I) t (h = dt/2, h_inv_i = (dt/2)/I); the drift, x += dt v,
+// returning the step dt v. T: one component (double: the GPU path's
+// kernels, gpu/drum_kernels.hpp and gpu/box_kernels.hpp) or a particle's
+// vector (Eigen: the CPU integrator below, in SIMD lanes); the same
+// operations on each component. Host and device (GRANULAR_HD).
+template <class T>
+GRANULAR_HD void leapfrog_kick(double h, const T& f, double inv_m, const T& g, T& v) {
+  v += h * (f * inv_m + g);
+}
+template <class T>
+GRANULAR_HD void leapfrog_spin_kick(double h_inv_i, const T& t, T& w) {
+  w += h_inv_i * t;
+}
+template <class T>
+GRANULAR_HD T leapfrog_drift(double dt, const T& v, T& x) {
+  const T step = dt * v;
   x += step;
   return step;
 }
@@ -85,9 +93,9 @@ struct Leapfrog {
 
   // Half a step's kick from the forces in the store.
   GRANULAR_INLINE void kick(const ParticleStore<Dim>& p, std::size_t i, V& v, A& w) const {
-    const double h = 0.5 * dt, inv_m = p.inv_m[i], hi = h * p.inv_i[i];
-    for (int a = 0; a < Dim; ++a) leapfrog_kick(h, p.f[i][a], inv_m, gravity[a], v[a]);
-    for (int a = 0; a < kAngDim<Dim>; ++a) leapfrog_spin_kick(hi, p.tq[i][a], w[a]);
+    const double h = 0.5 * dt;
+    leapfrog_kick(h, p.f[i], p.inv_m[i], gravity, v);
+    leapfrog_spin_kick(h * p.inv_i[i], p.tq[i], w);
   }
 
   // Kicks half kicks, then the drift, on particles [lo, hi).
@@ -107,8 +115,8 @@ struct Leapfrog {
       for (int k = 0; k < Kicks; ++k) kick(p, i, v, w);
       p.v[i] = v;
       p.w[i] = w;
-      V x = p.x[i], step;
-      for (int a = 0; a < Dim; ++a) step[a] = leapfrog_drift(dt, v[a], x[a]);
+      V x = p.x[i];
+      const V step = leapfrog_drift(dt, v, x);
       domain.wrap(x);
       p.x[i] = x;
       st.add(domain, i, step.squaredNorm(), x, x_ref[i]);
