@@ -26,10 +26,25 @@
 #include <cmath>
 #include <cstddef>
 
+#include "contact/lane.hpp"  // GRANULAR_HD
 #include "core/particles.hpp"
 #include "integrate/motion.hpp"
 
 namespace granular {
+
+// The grain at (x, y) seen from each wall's virtual particle, for the walls
+// on whose side of the centre line it is: touch(dx, dy) with (dx, dy) = r_i -
+// r_j, for the floor, the left wall, the right wall in turn. floor_c =
+// y_box(t) - r_w, top_c = y_box(t) + y_top, xc = W/2 + r_w. Host and device
+// (GRANULAR_HD): FlatBoxWalls::apply and the GPU box (gpu/box_kernels.hpp)
+// call it.
+template <class Touch>
+GRANULAR_HD void flat_box_offsets(double x, double y, double floor_c, double top_c, double xc, Touch&& touch) {
+  if (y > floor_c) touch(0.0, y - floor_c);
+  const double dy = y - std::min(y, top_c);
+  if (x > -xc) touch(x + xc, dy);
+  if (x < xc) touch(x - xc, dy);
+}
 
 struct FlatBoxWalls {
   using V = Vec<2>;
@@ -53,11 +68,9 @@ struct FlatBoxWalls {
     // Scalars until a contact is found: building a vector per test costs
     // more than the tests (a store-forwarding stall per temporary).
     for (std::size_t i = lo; i < hi; ++i) {
-      const double x = p.x[i].x(), y = p.x[i].y(), rc = Law::range(p.d[i], 2.0 * wall_radius);
-      if (y > floor_c) touch(p, law, i, 0.0, y - floor_c, rc, vw);
-      const double dy = y - std::min(y, top_c);
-      if (x > -xc) touch(p, law, i, x + xc, dy, rc, vw);
-      if (x < xc) touch(p, law, i, x - xc, dy, rc, vw);
+      const double rc = Law::range(p.d[i], 2.0 * wall_radius);
+      flat_box_offsets(p.x[i].x(), p.x[i].y(), floor_c, top_c, xc,
+                       [&](double dx, double dy) { touch(p, law, i, dx, dy, rc, vw); });
     }
   }
 

@@ -1,5 +1,5 @@
-// The drum on the GPU path (docs/gpu.md): a periodic drum's step (the
-// rotating cylinder wall, periodic ends, the leapfrog, any registered 3D
+// The drum on the GPU path (docs/gpu.md): a drum's step (the rotating
+// cylinder wall, periodic ends or end caps, the leapfrog, any registered 3D
 // contact law) written once as kernels (gpu/drum_kernels.hpp) and built twice:
 // by nvcc into CUDA kernels (gpu/drum_cuda.cu, with GRANULAR_HAVE_CUDA) and by
 // the host compiler into plain loops (gpu/drum_host.cpp), which the tests
@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "boundary/cylinder_wall.hpp"
+#include "boundary/end_caps.hpp"
 #include "contact/laws.hpp"
 #include "core/particles.hpp"
 #include "core/type_list.hpp"
@@ -37,10 +38,13 @@ struct WrittenFor3D : std::bool_constant<Law::kInDim> {};
 using DrumGpuLaws = Filter<WrittenFor3D, ContactLaws<3>>;
 using DrumGpuLaw = VariantOf<DrumGpuLaws>;
 
-// A periodic drum's step as plain values.
+// A drum's step as plain values.
 struct DrumModel {
   DrumGpuLaw law;
   CylinderWall wall;
+  // Capped ends (drum.ends = "capped"): the caps, and y is not periodic.
+  bool capped = false;
+  EndCaps caps;
   // The domain (core/domain.hpp): [lo, hi), and which axes wrap.
   std::array<double, 3> lo{}, hi{};
   std::array<bool, 3> periodic{};

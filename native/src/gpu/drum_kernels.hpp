@@ -1,4 +1,4 @@
-// The periodic drum's step as kernels, one source for both builds
+// The drum's step as kernels, one source for both builds
 // (gpu/exec.hpp): nvcc makes them CUDA kernels (gpu/drum_cuda.cu), the host
 // compiler plain loops (gpu/drum_host.cpp). Every kernel is a functor run
 // once per particle, and every particle's thread writes only that particle's
@@ -6,9 +6,10 @@
 // builds evaluate the same operations in the same order.
 //
 // The step, as Simulation::advance (engine/simulation.hpp) takes it with
-// Leapfrog<3> (integrate/leapfrog.hpp), CylinderWall and PeriodicAxes:
+// Leapfrog<3> (integrate/leapfrog.hpp), CylinderWall, and PeriodicAxes or
+// EndCaps:
 //
-//   stage 1     v += (dt/2) a;  r += dt v, wrapped along the periodic axis;
+//   stage 1     v += (dt/2) a;  r += dt v, wrapped along a periodic axis;
 //               the squared displacement since the last list build, and
 //               whether this step's move stayed within max_step_move
 //   rebuild     for each replica whose largest displacement exceeds skin/2,
@@ -22,15 +23,17 @@
 //               positions only
 //   forces      each particle: the cylinder's contact through the law's
 //               wall_lane (the wall's geometry from CylinderWall::geometry),
-//               then its side of each listed pair in range through the law's
+//               with capped ends the caps' (EndCaps::geometry), then its
+//               side of each listed pair in range through the law's
 //               pair_lane, summed in list order (each pair is evaluated
 //               from both sides)
 //   stage 2     v += (dt/2) a
 //
-// The physics is the contact law's lane functions (contact/lane.hpp) and
-// the wall's geometry, called here, not copied. The CPU engine sums a
-// particle's contacts in its half list's order, this path in its full
-// list's, so the two agree to rounding, not bitwise
+// The physics is the contact law's lane functions (contact/lane.hpp), the
+// walls' geometry and the leapfrog's updates (leapfrog_kick, leapfrog_drift),
+// called here, not copied. The CPU engine sums a particle's contacts in its
+// half list's order, this path in its full list's, so the two agree to
+// rounding, not bitwise
 // (tests/native/test_gpu_drum.cpp).
 #pragma once
 #include <algorithm>
@@ -46,6 +49,7 @@
 #include "contact/lane.hpp"
 #include "gpu/drum_gpu.hpp"
 #include "gpu/exec.hpp"
+#include "integrate/leapfrog.hpp"
 
 namespace granular::gpu {
 inline namespace GRANULAR_EXEC_NS {
@@ -128,8 +132,25 @@ GRANULAR_HD bool wall_on_i(const Law& law, const CylinderWall& wall, const DrumA
   return true;
 }
 
-// Half a step's kick from the forces (Leapfrog::kick): the same operations
-// in the same order.
+// A cap's contact with particle i through the law's wall_lane, if the
+// particle is within reach of one (EndCaps::in_reach); returns whether it is.
+template <class Law>
+GRANULAR_HD bool caps_on_i(const Law& law, const EndCaps& caps, const DrumArrays& s, unsigned i, WallForce<3>& o) {
+  const unsigned n = s.n;
+  const double y = s.x[n + i], di = s.d[i];
+  if (!caps.in_reach<Law>(y, di)) return false;
+  WallContact<3> c;
+  caps.geometry(s.x[i], y, s.x[2 * n + i], di, s.v[i], s.v[n + i], s.v[2 * n + i], c.rp, c.v, c.lever, c.d_iw);
+  for (int a = 0; a < 3; ++a) c.w[a] = s.w[a * n + i];
+  c.di = di;
+  c.ci = s.species[i];
+  c.inv_mi = s.inv_m[i];
+  law.wall_lane(c, o);
+  return true;
+}
+
+// Half a step's kick from the forces (Leapfrog::kick: leapfrog_kick and
+// leapfrog_spin_kick).
 struct Kick {
   DrumArrays s;
   double dt;
@@ -139,19 +160,17 @@ struct Kick {
     const unsigned n = s.n;
     const double h = 0.5 * dt;
     const double inv_m = s.inv_m[i], hi = h * s.inv_i[i];
-    for (int a = 0; a < 3; ++a) {
-      s.v[a * n + i] += h * (s.f[a * n + i] * inv_m + g[a]);
-      s.w[a * n + i] += hi * s.t[a * n + i];
-    }
+    for (int a = 0; a < 3; ++a) leapfrog_kick(h, s.f[a * n + i], inv_m, g[a], s.v[a * n + i]);
+    for (int a = 0; a < 3; ++a) leapfrog_spin_kick(hi, s.t[a * n + i], s.w[a * n + i]);
   }
   GRANULAR_HD void operator()(unsigned i) const { kick(i); }
 };
 
-// Stage 1: a kick, then the drift and the periodic wrap (Leapfrog's
-// kicks_then_drift), and the squared displacement since the list's build
-// (minimum image). +infinity instead where the step's move is longer than
-// max_step_move or not finite (Simulation's stability test), which the
-// stepper reports.
+// Stage 1: a kick, then the drift (leapfrog_drift) and the periodic wrap
+// (Leapfrog's kicks_then_drift), and the squared displacement since the
+// list's build (minimum image). +infinity instead where the step's move is
+// longer than max_step_move or not finite (Simulation's stability test),
+// which the stepper reports.
 struct KickDrift {
   Kick k;
   Box box;
@@ -163,8 +182,9 @@ struct KickDrift {
     const unsigned n = s.n;
     double dr[3], step[3];
     for (int a = 0; a < 3; ++a) {
-      step[a] = k.dt * s.v[a * n + i];
-      const double x = box.wrapped(s.x[a * n + i] + step[a], a);
+      double x = s.x[a * n + i];
+      step[a] = leapfrog_drift(k.dt, s.v[a * n + i], x);
+      x = box.wrapped(x, a);
       s.x[a * n + i] = x;
       dr[a] = x - s.x_ref[a * n + i];
     }
@@ -315,12 +335,13 @@ struct ListNeighbors {
   }
 };
 
-// Particle i's force and torque: the wall's contact, then its side of every
-// listed pair in range, in list order.
-template <class Law>
+// Particle i's force and torque: the cylinder's contact, the caps' (Capped),
+// then its side of every listed pair in range, in list order.
+template <class Law, bool Capped>
 struct Forces {
   Law law;
   CylinderWall wall;
+  EndCaps caps;
   Box box;
   DrumArrays s;
   const std::uint32_t* nbr;
@@ -335,6 +356,12 @@ struct Forces {
         f[a] += wf.f[a];
         t[a] += wf.t[a];
       }
+    if constexpr (Capped)
+      if (caps_on_i(law, caps, s, i, wf))
+        for (int a = 0; a < 3; ++a) {
+          f[a] += wf.f[a];
+          t[a] += wf.t[a];
+        }
     for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
       PairForce<3> pf;
       if (!pair_on_i(law, box, s, i, nbr[m * n + i], pf)) continue;
@@ -388,12 +415,13 @@ struct WorstOverlap {
 };
 
 // The stepper: the state of one or several replicas in DeviceArrays (the
-// replicas' particles one after another) and the step above.
-template <class Law>
+// replicas' particles one after another) and the step above; Capped: with
+// end caps.
+template <class Law, bool Capped>
 class DrumKernels final : public DrumStepper {
  public:
   DrumKernels(const Law& law, const std::vector<DrumModel>& ms)
-      : law_(law), wall_(ms.front().wall), time_(ms.front().time), steps_(ms.front().step_count) {
+      : law_(law), wall_(ms.front().wall), caps_(ms.front().caps), time_(ms.front().time), steps_(ms.front().step_count) {
     const DrumModel& m = ms.front();
     k_ = static_cast<unsigned>(ms.size());
     std::size_t total = 0;
@@ -401,6 +429,7 @@ class DrumKernels final : public DrumStepper {
     for (const DrumModel& r : ms) {
       if (r.time != m.time || r.step_count != m.step_count || r.p.size() == 0)
         throw std::invalid_argument("GPU drum: replicas must start at the same step, each with particles");
+      if (r.capped != Capped) throw std::invalid_argument("GPU drum: replicas must all have the same ends");
       total += r.p.size();
       if (total >= std::numeric_limits<std::uint32_t>::max())
         throw std::invalid_argument("GPU drum: too many particles for 32-bit indices");
@@ -586,10 +615,13 @@ class DrumKernels final : public DrumStepper {
     ++builds_;
   }
 
-  void forces() { for_each(n_, Forces<Law>{law_, wall_, box_, arrays(), nbr_.data(), count_.data()}); }
+  void forces() {
+    for_each(n_, Forces<Law, Capped>{law_, wall_, caps_, box_, arrays(), nbr_.data(), count_.data()});
+  }
 
   Law law_;
   CylinderWall wall_;
+  EndCaps caps_;
   unsigned n_ = 0, k_ = 1;
   std::vector<std::uint32_t> offsets_;     // replica r: particles [offsets_[r], offsets_[r + 1])
   std::vector<std::uint32_t> renew_host_;  // per replica: its reference positions are renewed at the next build
@@ -610,14 +642,15 @@ class DrumKernels final : public DrumStepper {
   Scratch scratch_;
 };
 
-// A stepper for the replicas' law (the first's: the replicas are one scene),
-// in this build.
+// A stepper for the replicas' law and ends (the first's: the replicas are
+// one scene), in this build.
 inline std::unique_ptr<DrumStepper> make_drum_stepper(const std::vector<DrumModel>& ms) {
   if (ms.empty()) throw std::invalid_argument("GPU drum: no replica to step");
   return std::visit(
       [&](const auto& law) -> std::unique_ptr<DrumStepper> {
         using Law = std::decay_t<decltype(law)>;
-        return std::make_unique<DrumKernels<Law>>(law, ms);
+        if (ms.front().capped) return std::make_unique<DrumKernels<Law, true>>(law, ms);
+        return std::make_unique<DrumKernels<Law, false>>(law, ms);
       },
       ms.front().law);
 }

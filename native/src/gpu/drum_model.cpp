@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
+#include <limits>
 #include <type_traits>
 
 namespace granular::gpu {
@@ -14,27 +14,26 @@ DrumModel drum_model(const DrumSim& sim) {
   return std::visit(
       [](const auto& s) -> DrumModel {
         using Sim = std::decay_t<decltype(s)>;
+        DrumModel m;
+        m.law = s.law;
+        m.wall = std::get<CylinderWall>(s.walls);
         if constexpr (Sim::template kHasWall<EndCaps>) {
-          throw std::invalid_argument(
-              "the GPU path runs drums with periodic ends only (drum.ends = \"periodic\"), not capped ones");
-        } else {
-          DrumModel m;
-          m.law = s.law;
-          m.wall = std::get<CylinderWall>(s.walls);
-          for (int a = 0; a < 3; ++a) {
-            m.lo[a] = s.domain.lo[a];
-            m.hi[a] = s.domain.hi[a];
-            m.periodic[a] = s.domain.periodic[a];
-            m.gravity[a] = s.integrator.gravity[a];
-          }
-          m.dt = s.integrator.dt;
-          m.skin = s.skin;
-          m.time = s.time;
-          m.step_count = s.step_count;
-          m.max_step_move = s.max_step_move();
-          m.p = s.p;
-          return m;
+          m.capped = true;
+          m.caps = std::get<EndCaps>(s.walls);
         }
+        for (int a = 0; a < 3; ++a) {
+          m.lo[a] = s.domain.lo[a];
+          m.hi[a] = s.domain.hi[a];
+          m.periodic[a] = s.domain.periodic[a];
+          m.gravity[a] = s.integrator.gravity[a];
+        }
+        m.dt = s.integrator.dt;
+        m.skin = s.skin;
+        m.time = s.time;
+        m.step_count = s.step_count;
+        m.max_step_move = s.max_step_move();
+        m.p = s.p;
+        return m;
       },
       sim);
 }

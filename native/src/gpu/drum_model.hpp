@@ -7,8 +7,7 @@
 
 namespace granular::gpu {
 
-// The model of a drum with periodic ends; throws std::invalid_argument for
-// one the GPU path does not run (capped ends).
+// The model of a drum, with periodic ends or end caps.
 DrumModel drum_model(const DrumSim& sim);
 
 }  // namespace granular::gpu

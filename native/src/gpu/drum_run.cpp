@@ -14,8 +14,6 @@ namespace granular::gpu {
 
 std::string unsupported_scene(const std::string& kind, const DrumScene* drum) {
   if (kind != "drum" || !drum) return "the GPU engine runs drum scenes only, not a " + kind + " scene";
-  if (drum->capped)
-    return "the GPU engine runs drums with periodic ends only (drum.ends = \"periodic\"), not capped ones";
   return "";
 }
 

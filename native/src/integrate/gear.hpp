@@ -18,6 +18,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "contact/lane.hpp"  // GRANULAR_HD
 #include "core/domain.hpp"
 #include "core/particles.hpp"
 #include "integrate/drift_stats.hpp"
@@ -25,13 +26,47 @@
 
 namespace granular {
 
+// Gear's coefficients for forces that depend on velocities (c_2 = 1).
+inline constexpr double kGearC0 = 3.0 / 20.0, kGearC1 = 251.0 / 360.0, kGearC3 = 11.0 / 18.0, kGearC4 = 1.0 / 6.0,
+                        kGearC5 = 1.0 / 60.0;
+
+// The predictor (the Pascal matrix above): x = r_0, v the velocity
+// (r_1 = dt v), r2..r5 the scaled derivatives; returns the step
+// r_1 + r_2 + ... + r_5. An angle takes the same, with phi_0 as x and w as v.
+// T: one coordinate (double: the GPU box's kernels, gpu/box_kernels.hpp) or
+// a particle's vector (Eigen: the CPU integrator below, in SIMD lanes); the
+// same operations on each component. Host and device (GRANULAR_HD).
+template <class T>
+GRANULAR_HD T gear_predict(double dt, T& x, T& v, T& r2, T& r3, T& r4, T& r5) {
+  const T r1 = dt * v;
+  const T step = r1 + r2 + r3 + r4 + r5;
+  x += step;
+  v = (r1 + 2.0 * r2 + 3.0 * r3 + 4.0 * r4 + 5.0 * r5) / dt;
+  r2 += 3.0 * r3 + 6.0 * r4 + 10.0 * r5;
+  r3 += 4.0 * r4 + 10.0 * r5;
+  r4 += 5.0 * r5;
+  return step;
+}
+
+// The corrector: a2 = (dt^2/2) times the acceleration from the forces,
+// D = a2 - r_2, r_k += c_k D (c0: c_0, 3/20 or 3/16). T as for gear_predict.
+template <class T>
+GRANULAR_HD void gear_correct(double c0, double dt, const T& a2, T& x, T& v, T& r2, T& r3, T& r4, T& r5) {
+  const T d = a2 - r2;
+  x += c0 * d;
+  v += (kGearC1 / dt) * d;
+  r2 += d;
+  r3 += kGearC3 * d;
+  r4 += kGearC4 * d;
+  r5 += kGearC5 * d;
+}
+
 template <int Dim, class Motion = NoMotion>
 struct Gear5 {
   using V = Vec<Dim>;
   using A = Ang<Dim>;
   using DriftStats = granular::DriftStats;
-  static constexpr double kC0 = 3.0 / 20.0, kC1 = 251.0 / 360.0, kC3 = 11.0 / 18.0, kC4 = 1.0 / 6.0,
-                          kC5 = 1.0 / 60.0;
+  static constexpr double kC0 = kGearC0, kC1 = kGearC1, kC3 = kGearC3, kC4 = kGearC4, kC5 = kGearC5;
   double dt = 5e-5;
   V gravity = V::Zero();
   Motion motion{};
@@ -102,42 +137,20 @@ struct Gear5 {
   // The predictor; returns the position's step.
   template <bool P>
   GRANULAR_INLINE V predict(State& s, const Domain<Dim, P>& domain) const {
-    const V r1 = dt * s.v;
-    const V step = r1 + s.r2 + s.r3 + s.r4 + s.r5;
-    s.x += step;
+    const V step = gear_predict(dt, s.x, s.v, s.r2, s.r3, s.r4, s.r5);
     domain.wrap(s.x);
-    s.v = (r1 + 2.0 * s.r2 + 3.0 * s.r3 + 4.0 * s.r4 + 5.0 * s.r5) / dt;
-    s.r2 += 3.0 * s.r3 + 6.0 * s.r4 + 10.0 * s.r5;
-    s.r3 += 4.0 * s.r4 + 10.0 * s.r5;
-    s.r4 += 5.0 * s.r5;
-    const A q1 = dt * s.w;
-    s.q0 += q1 + s.q2 + s.q3 + s.q4 + s.q5;
-    s.w = (q1 + 2.0 * s.q2 + 3.0 * s.q3 + 4.0 * s.q4 + 5.0 * s.q5) / dt;
-    s.q2 += 3.0 * s.q3 + 6.0 * s.q4 + 10.0 * s.q5;
-    s.q3 += 4.0 * s.q4 + 10.0 * s.q5;
-    s.q4 += 5.0 * s.q5;
+    gear_predict(dt, s.q0, s.w, s.q2, s.q3, s.q4, s.q5);
     return step;
   }
 
   // The corrector, from the forces in the store.
   template <bool P>
-  GRANULAR_INLINE void correct(State& s, const ParticleStore<Dim>& p, std::size_t i, const Domain<Dim, P>& domain) const {
+  GRANULAR_INLINE void correct(State& s, const ParticleStore<Dim>& p, std::size_t i,
+                               const Domain<Dim, P>& domain) const {
     const double h2 = 0.5 * dt * dt;
-    const V d = h2 * (p.f[i] * p.inv_m[i] + gravity) - s.r2;
-    s.x += c0 * d;
+    gear_correct(c0, dt, V(h2 * (p.f[i] * p.inv_m[i] + gravity)), s.x, s.v, s.r2, s.r3, s.r4, s.r5);
     domain.wrap(s.x);
-    s.v += (kC1 / dt) * d;
-    s.r2 += d;
-    s.r3 += kC3 * d;
-    s.r4 += kC4 * d;
-    s.r5 += kC5 * d;
-    const A e = (h2 * p.inv_i[i]) * p.tq[i] - s.q2;
-    s.q0 += c0 * e;
-    s.w += (kC1 / dt) * e;
-    s.q2 += e;
-    s.q3 += kC3 * e;
-    s.q4 += kC4 * e;
-    s.q5 += kC5 * e;
+    gear_correct(c0, dt, A((h2 * p.inv_i[i]) * p.tq[i]), s.q0, s.w, s.q2, s.q3, s.q4, s.q5);
   }
 
   // The corrector and/or the predictor on particles [lo, hi). x_ref, t_next

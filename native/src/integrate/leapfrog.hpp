@@ -13,12 +13,34 @@
 #include <cstddef>
 #include <vector>
 
+#include "contact/lane.hpp"  // GRANULAR_HD
 #include "core/domain.hpp"
 #include "core/particles.hpp"
 #include "integrate/drift_stats.hpp"
 #include "integrate/motion.hpp"
 
 namespace granular {
+
+// The half kick, v += (dt/2) a with a = f/m + g, and the angular one,
+// w += ((dt/2)/I) t (h = dt/2, h_inv_i = (dt/2)/I); the drift, x += dt v,
+// returning the step dt v. T: one component (double: the GPU path's
+// kernels, gpu/drum_kernels.hpp and gpu/box_kernels.hpp) or a particle's
+// vector (Eigen: the CPU integrator below, in SIMD lanes); the same
+// operations on each component. Host and device (GRANULAR_HD).
+template <class T>
+GRANULAR_HD void leapfrog_kick(double h, const T& f, double inv_m, const T& g, T& v) {
+  v += h * (f * inv_m + g);
+}
+template <class T>
+GRANULAR_HD void leapfrog_spin_kick(double h_inv_i, const T& t, T& w) {
+  w += h_inv_i * t;
+}
+template <class T>
+GRANULAR_HD T leapfrog_drift(double dt, const T& v, T& x) {
+  const T step = dt * v;
+  x += step;
+  return step;
+}
 
 template <int Dim, class Motion = NoMotion>
 struct Leapfrog {
@@ -72,8 +94,8 @@ struct Leapfrog {
   // Half a step's kick from the forces in the store.
   GRANULAR_INLINE void kick(const ParticleStore<Dim>& p, std::size_t i, V& v, A& w) const {
     const double h = 0.5 * dt;
-    v += h * (p.f[i] * p.inv_m[i] + gravity);
-    w += (h * p.inv_i[i]) * p.tq[i];
+    leapfrog_kick(h, p.f[i], p.inv_m[i], gravity, v);
+    leapfrog_spin_kick(h * p.inv_i[i], p.tq[i], w);
   }
 
   // Kicks half kicks, then the drift, on particles [lo, hi).
@@ -93,8 +115,8 @@ struct Leapfrog {
       for (int k = 0; k < Kicks; ++k) kick(p, i, v, w);
       p.v[i] = v;
       p.w[i] = w;
-      const V step = dt * v;
-      V x = p.x[i] + step;
+      V x = p.x[i];
+      const V step = leapfrog_drift(dt, v, x);
       domain.wrap(x);
       p.x[i] = x;
       st.add(domain, i, step.squaredNorm(), x, x_ref[i]);
