@@ -29,11 +29,11 @@ pack() {
   if ! cmake --build build-gpu --target help | grep granular_cuda >/dev/null; then
     echo "gpu_check: CMake found no CUDA (see docs/gpu.md, Building)" >&2; exit 2
   fi
-  cmake --build build-gpu -j"$(nproc)" --target granular test_gpu_cuda test_gpu_drum
+  cmake --build build-gpu -j"$(nproc)" --target granular test_gpu_cuda test_gpu_drum test_gpu_box
   rm -rf "$pack"
   mkdir -p "$pack/lib"
-  cp build-gpu/granular build-gpu/tests/native/test_gpu_cuda build-gpu/tests/native/test_gpu_drum "$pack/"
-  for exe in "$pack"/granular "$pack"/test_gpu_cuda "$pack"/test_gpu_drum; do
+  cp build-gpu/granular build-gpu/tests/native/test_gpu_{cuda,drum,box} "$pack/"
+  for exe in "$pack"/granular "$pack"/test_gpu_*; do
     ldd "$exe" | awk '/=> \// { print $3 } /^\t\/lib/ { print $1 }'
   done | sort -u | while read -r lib; do
     cp -L "$lib" "$pack/lib/"
@@ -65,9 +65,10 @@ run() {
   echo "gpu_check: the CUDA build against the host build (test_gpu_cuda)"
   "${ld[@]}" "$root/$pack/test_gpu_cuda" --gtest_output=json:"$out/test_gpu_cuda.json" 2>&1 |
     tee "$out/test_gpu_cuda.log" || status=1
-  echo "gpu_check: the host build against the CPU engine (test_gpu_drum)"
-  "${ld[@]}" "$root/$pack/test_gpu_drum" --gtest_output=json:"$out/test_gpu_drum.json" 2>&1 |
-    tee "$out/test_gpu_drum.log" || status=1
+  for t in test_gpu_drum test_gpu_box; do
+    echo "gpu_check: the host build against the CPU engine ($t)"
+    "${ld[@]}" "$root/$pack/$t" --gtest_output=json:"$out/$t.json" 2>&1 | tee "$out/$t.log" || status=1
+  done
 
   echo "gpu_check: GPU benchmark"
   # #T (62 244 particles), #A (4 664), 32 replicas of #A, and #A's drum
