@@ -234,7 +234,7 @@ TEST_P(GpuBoxHost, FollowsTheCpuEngine) {
   const BoxScene s = small_box(c.integrator, c.law, c.damping, c.walls);
   BoxSim sim = make_box(s);
   const gpu::BoxModel model = gpu::box_model(sim);
-  EXPECT_EQ(model.smooth_walls, c.walls == "smooth");
+  EXPECT_EQ(model.walls == gpu::BoxWalls::smooth, c.walls == "smooth");
   EXPECT_EQ(model.integrator, c.integrator == "gear" ? gpu::BoxIntegrator::gear : gpu::BoxIntegrator::leapfrog);
   const auto stepper = gpu::make_host_box(model);
   EXPECT_STREQ(stepper->backend(), "host");
@@ -256,7 +256,7 @@ TEST_P(GpuBoxHost, FollowsTheCpuEngine) {
           else
             kicked = std::max(kicked, (got.v[i] - model.p.v[i] - Eigen::Vector2d(0.0, -fall)).norm());
         }
-        if (model.smooth_walls) wall_moved = std::abs(model.shaker.y(v.time) - model.shaker.y(model.time));
+        if (model.walls == gpu::BoxWalls::smooth) wall_moved = std::abs(model.shaker.y(v.time) - model.shaker.y(model.time));
         EXPECT_GT(wall_moved, 0.1);
         EXPECT_GT(kicked, 5.0);
         EXPECT_GE(stepper->builds(), 2);

@@ -100,7 +100,7 @@ void check_pair(const Law& law) {
   constexpr double kTol = 1e-12;
   const double length = 8.0;
   const gpu::Box box = periodic_y(length);
-  Domain<3, true> domain;
+  Domain<3, Wrap::periodic> domain;
   domain.lo = Eigen::Vector3d(box.lo[0], box.lo[1], box.lo[2]);
   domain.hi = domain.lo + Eigen::Vector3d(box.len[0], box.len[1], box.len[2]);
   domain.periodic = {false, true, false};

@@ -198,8 +198,8 @@ constexpr bool none_periodic(std::index_sequence<I...>) {
 // nothing, a periodic box's do, and an open box refuses a periodic axis
 // rather than silently leaving it unwrapped.
 TEST(PeriodicAxes, OnlyTheBoundaryMakesTheBoxWrap) {
-  Domain<3, true> periodic;
-  Domain<3, false> open;
+  Domain<3, Wrap::periodic> periodic;
+  Domain<3, Wrap::open> open;
   for (auto* lo : {&periodic.lo, &open.lo}) *lo = Eigen::Vector3d(-5, -10, -5);
   for (auto* hi : {&periodic.hi, &open.hi}) *hi = Eigen::Vector3d(5, 10, 5);
   periodic.periodic = {false, true, false};

@@ -4,7 +4,7 @@
 // box of Poeschel and Herrmann is a scene, engine/box.hpp; this is not it.)
 //
 // Whether any axis may be periodic is chosen with the simulation's type
-// (Periodic; boundary/periodic_axes.hpp): an open domain's min_image and wrap
+// (Wrap; boundary/periodic_axes.hpp): an open domain's min_image and wrap
 // are the identity and compile to nothing, so the shaken box and the capped
 // drum pay nothing for the periodic drum's wrap. Shaken box at 3 Hz, 1 thread,
 // 6 alternated runs: 1.15 times the rate of a build that multiplied every
@@ -20,8 +20,13 @@
 
 namespace granular {
 
-template <int Dim, bool Periodic = false>
+// Whether a domain's axes may wrap: open (none can) or periodic (those marked
+// in Domain::periodic do).
+enum class Wrap { open, periodic };
+
+template <int Dim, Wrap W = Wrap::open>
 struct Domain {
+  static constexpr bool kPeriodic = W == Wrap::periodic;
   using V = Vec<Dim>;
   V lo = V::Zero();
   V hi = V::Zero();
@@ -31,7 +36,7 @@ struct Domain {
 
   // Branch-free minimum image: inv_len_ is 0 on non-periodic axes.
   V min_image(V dr) const {
-    if constexpr (Periodic)
+    if constexpr (kPeriodic)
       for (int k = 0; k < Dim; ++k) dr[k] -= len_[k] * std::nearbyint(dr[k] * inv_len_[k]);
     return dr;
   }
@@ -40,7 +45,7 @@ struct Domain {
   // factor is floor(0) = 0 on the others), so that the caller's copy stays in
   // registers rather than being written one component at a time.
   V wrapped(const V& x) const {
-    if constexpr (Periodic) {
+    if constexpr (kPeriodic) {
       const V cells = ((x - lo).cwiseProduct(inv_len_)).array().floor().matrix();
       return x - len_.cwiseProduct(cells);
     } else {
@@ -54,7 +59,7 @@ struct Domain {
   void finalize() {
     len_ = hi - lo;
     for (int k = 0; k < Dim; ++k) {
-      if (!Periodic && periodic[k])
+      if (!kPeriodic && periodic[k])
         throw std::logic_error("Domain: axis " + std::to_string(k) +
                                " is periodic but the simulation type has no periodic axes "
                                "(add the PeriodicAxes boundary: boundary/periodic_axes.hpp)");

@@ -48,7 +48,7 @@ class Simulation {
   // A periodic domain only with the PeriodicAxes boundary (core/domain.hpp).
   static constexpr bool kPeriodic = kHasWall<PeriodicAxes>;
   ParticleStore<Dim> p;
-  Domain<Dim, kPeriodic> domain;
+  Domain<Dim, kPeriodic ? Wrap::periodic : Wrap::open> domain;
   Law law;
   Integrator integrator;
   std::tuple<Walls...> walls;

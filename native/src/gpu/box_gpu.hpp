@@ -38,6 +38,10 @@ using BoxGpuLaw = VariantOf<BoxGpuLaws>;
 // leapfrog (integrate/leapfrog.hpp).
 enum class BoxIntegrator { gear, leapfrog };
 
+// box.walls: smooth walls (boundary/flat_box_walls.hpp) or walls of particles
+// (the paper's: particles of species kWallSpecies driven by the shaker).
+enum class BoxWalls { smooth, particles };
+
 // A shaken box's step as plain values.
 struct BoxModel {
   BoxGpuLaw law;
@@ -54,9 +58,8 @@ struct BoxModel {
   // y_box(t): the shaker places the particles of species kWallSpecies at
   // their anchors (by id) displaced by it.
   ShakerMotion<2> shaker;
-  // Smooth walls (box.walls = "smooth"): the walls, moving with `shaker`,
-  // and no wall particles.
-  bool smooth_walls = false;
+  // Smooth walls: `flat`, moving with `shaker`, and no wall particles.
+  BoxWalls walls = BoxWalls::particles;
   FlatBoxWalls flat;
   double time = 0.0;  // of the state below
   long step_count = 0;

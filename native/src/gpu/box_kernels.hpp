@@ -352,9 +352,10 @@ struct BoxListNeighbors {
   }
 };
 
-// Particle i's force and torque: the smooth walls' contacts (Smooth), then
-// its side of every listed pair in range, in list order.
-template <class Law, bool Smooth>
+// Particle i's force and torque: the smooth walls' contacts (smooth walls),
+// then its side of every listed pair in range, in list order (walls of
+// particles are particles in the list).
+template <class Law, BoxWalls Walls>
 struct BoxForces {
   Law law;
   FlatWalls2 walls;
@@ -365,7 +366,7 @@ struct BoxForces {
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
     double f[2] = {0.0, 0.0}, t = 0.0;
-    if constexpr (Smooth) flat_walls_on_i(law, walls, s, i, f, t);
+    if constexpr (Walls == BoxWalls::smooth) flat_walls_on_i(law, walls, s, i, f, t);
     for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
       PairForce<2> pf;
       if (!box_pair_on_i(law, s, i, nbr[m * n + i], pf)) continue;
@@ -377,11 +378,12 @@ struct BoxForces {
   }
 };
 
-// The stepper: the state in DeviceArrays and the step above; Gear: Gear's
-// predictor-corrector, else the leapfrog; Smooth: smooth walls, else walls of
-// particles.
-template <class Law, bool Gear, bool Smooth>
+// The stepper: the state in DeviceArrays and the step above, for one
+// integrator and one kind of walls.
+template <class Law, BoxIntegrator Integrator, BoxWalls Walls>
 class BoxKernels final : public BoxStepper {
+  static constexpr bool kGear = Integrator == BoxIntegrator::gear;
+
  public:
   BoxKernels(const Law& law, const BoxModel& m)
       : law_(law),
@@ -392,7 +394,7 @@ class BoxKernels final : public BoxStepper {
         steps_(m.step_count) {
     if (m.p.size() >= std::numeric_limits<std::uint32_t>::max())
       throw std::invalid_argument("GPU box: too many particles for 32-bit indices");
-    if (Gear && (m.p.aux_v.size() != 4 || m.p.aux_a.size() != 5))
+    if (kGear && (m.p.aux_v.size() != 4 || m.p.aux_a.size() != 5))
       throw std::invalid_argument("GPU box: Gear's scaled derivatives are missing from the state (Gear5::start)");
     dt_ = m.dt;
     c0_ = m.gear_c0;
@@ -437,7 +439,7 @@ class BoxKernels final : public BoxStepper {
       const auto b = pose_at(shaker_, t_next);  // once per step, as the CPU integrators
       const Pose2 pose{{b.dx[0], b.dx[1]}, {b.v[0], b.v[1]}};
       const BoxArrays s = arrays();
-      if constexpr (Gear)
+      if constexpr (kGear)
         for_each(n_, GearPredict{s, dt_, pose});
       else
         for_each(n_, LeapfrogFirst{s, dt_, {g_[0], g_[1]}, pose});
@@ -447,8 +449,8 @@ class BoxKernels final : public BoxStepper {
                                  std::to_string(steps_ + 1) + " (t = " + std::to_string(t_next) +
                                  "); reduce integrator.dt or check the contact parameters");
       if (moved2 > lim2) build();
-      for_each(n_, BoxForces<Law, Smooth>{law_, walls_at(t_next), s, nbr_.data(), count_.data()});
-      if constexpr (Gear)
+      for_each(n_, BoxForces<Law, Walls>{law_, walls_at(t_next), s, nbr_.data(), count_.data()});
+      if constexpr (kGear)
         for_each(n_, GearCorrect{s, dt_, c0_, {g_[0], g_[1]}});
       else
         for_each(n_, LeapfrogSecond{s, dt_, {g_[0], g_[1]}});
@@ -465,7 +467,7 @@ class BoxKernels final : public BoxStepper {
     download_vectors(f_, p.f);
     download_angles(w_, p.w);
     download_angles(t_, p.tq);
-    if (Gear && p.aux_v.size() == 4 && p.aux_a.size() == 5) {
+    if (kGear && p.aux_v.size() == 4 && p.aux_a.size() == 5) {
       for (int k = 0; k < 4; ++k) download_vectors(r_[k], p.aux_v[k]);
       for (int k = 0; k < 5; ++k) download_angles(q_[k], p.aux_a[k]);
     }
@@ -480,7 +482,7 @@ class BoxKernels final : public BoxStepper {
   // The smooth walls at time t (FlatBoxWalls::apply), evaluated on the host.
   FlatWalls2 walls_at(double t) const {
     FlatWalls2 w{};
-    if constexpr (Smooth) {
+    if constexpr (Walls == BoxWalls::smooth) {
       const double yb = flat_.shaker.y(t);
       w.floor_c = yb - flat_.wall_radius;
       w.top_c = yb + flat_.side_top;
@@ -541,7 +543,7 @@ class BoxKernels final : public BoxStepper {
       for (int a = 0; a < 2; ++a) anchor[a * n_ + i] = shaker_.anchor[id][a];
     }
     anchor_.upload(anchor);
-    if constexpr (Gear) {
+    if constexpr (kGear) {
       for (int k = 0; k < 4; ++k) upload_vectors(p.aux_v[k], r_[k]);
       for (int k = 0; k < 5; ++k) upload_angles(p.aux_a[k], q_[k]);
     }
@@ -591,13 +593,14 @@ inline std::unique_ptr<BoxStepper> make_box_stepper(const BoxModel& m) {
   return std::visit(
       [&](const auto& law) -> std::unique_ptr<BoxStepper> {
         using Law = std::decay_t<decltype(law)>;
-        const bool gear = m.integrator == BoxIntegrator::gear;
-        if (m.smooth_walls) {
-          if (gear) return std::make_unique<BoxKernels<Law, true, true>>(law, m);
-          return std::make_unique<BoxKernels<Law, false, true>>(law, m);
+        using I = BoxIntegrator;
+        using W = BoxWalls;
+        if (m.walls == W::smooth) {
+          if (m.integrator == I::gear) return std::make_unique<BoxKernels<Law, I::gear, W::smooth>>(law, m);
+          return std::make_unique<BoxKernels<Law, I::leapfrog, W::smooth>>(law, m);
         }
-        if (gear) return std::make_unique<BoxKernels<Law, true, false>>(law, m);
-        return std::make_unique<BoxKernels<Law, false, false>>(law, m);
+        if (m.integrator == I::gear) return std::make_unique<BoxKernels<Law, I::gear, W::particles>>(law, m);
+        return std::make_unique<BoxKernels<Law, I::leapfrog, W::particles>>(law, m);
       },
       m.law);
 }

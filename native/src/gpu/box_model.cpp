@@ -38,7 +38,7 @@ BoxModel box_model(const BoxSim& sim) {
         m.skin = s.skin;
         m.exclude_species = s.exclude_species;
         if constexpr (Sim::template kHasWall<FlatBoxWalls>) {
-          m.smooth_walls = true;
+          m.walls = BoxWalls::smooth;
           m.flat = std::get<FlatBoxWalls>(s.walls);
           m.shaker = m.flat.shaker;
         } else {

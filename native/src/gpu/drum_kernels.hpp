@@ -335,9 +335,12 @@ struct ListNeighbors {
   }
 };
 
-// Particle i's force and torque: the cylinder's contact, the caps' (Capped),
-// then its side of every listed pair in range, in list order.
-template <class Law, bool Capped>
+// A drum's ends: periodic along the axis, or closed by end caps.
+enum class DrumEnds { periodic, capped };
+
+// Particle i's force and torque: the cylinder's contact, the caps' (capped
+// ends), then its side of every listed pair in range, in list order.
+template <class Law, DrumEnds Ends>
 struct Forces {
   Law law;
   CylinderWall wall;
@@ -356,7 +359,7 @@ struct Forces {
         f[a] += wf.f[a];
         t[a] += wf.t[a];
       }
-    if constexpr (Capped)
+    if constexpr (Ends == DrumEnds::capped)
       if (caps_on_i(law, caps, s, i, wf))
         for (int a = 0; a < 3; ++a) {
           f[a] += wf.f[a];
@@ -415,9 +418,9 @@ struct WorstOverlap {
 };
 
 // The stepper: the state of one or several replicas in DeviceArrays (the
-// replicas' particles one after another) and the step above; Capped: with
-// end caps.
-template <class Law, bool Capped>
+// replicas' particles one after another) and the step above, for one kind
+// of ends.
+template <class Law, DrumEnds Ends>
 class DrumKernels final : public DrumStepper {
  public:
   DrumKernels(const Law& law, const std::vector<DrumModel>& ms)
@@ -429,7 +432,7 @@ class DrumKernels final : public DrumStepper {
     for (const DrumModel& r : ms) {
       if (r.time != m.time || r.step_count != m.step_count || r.p.size() == 0)
         throw std::invalid_argument("GPU drum: replicas must start at the same step, each with particles");
-      if (r.capped != Capped) throw std::invalid_argument("GPU drum: replicas must all have the same ends");
+      if (r.capped != (Ends == DrumEnds::capped)) throw std::invalid_argument("GPU drum: replicas must all have the same ends");
       total += r.p.size();
       if (total >= std::numeric_limits<std::uint32_t>::max())
         throw std::invalid_argument("GPU drum: too many particles for 32-bit indices");
@@ -616,7 +619,7 @@ class DrumKernels final : public DrumStepper {
   }
 
   void forces() {
-    for_each(n_, Forces<Law, Capped>{law_, wall_, caps_, box_, arrays(), nbr_.data(), count_.data()});
+    for_each(n_, Forces<Law, Ends>{law_, wall_, caps_, box_, arrays(), nbr_.data(), count_.data()});
   }
 
   Law law_;
@@ -649,8 +652,8 @@ inline std::unique_ptr<DrumStepper> make_drum_stepper(const std::vector<DrumMode
   return std::visit(
       [&](const auto& law) -> std::unique_ptr<DrumStepper> {
         using Law = std::decay_t<decltype(law)>;
-        if (ms.front().capped) return std::make_unique<DrumKernels<Law, true>>(law, ms);
-        return std::make_unique<DrumKernels<Law, false>>(law, ms);
+        if (ms.front().capped) return std::make_unique<DrumKernels<Law, DrumEnds::capped>>(law, ms);
+        return std::make_unique<DrumKernels<Law, DrumEnds::periodic>>(law, ms);
       },
       ms.front().law);
 }

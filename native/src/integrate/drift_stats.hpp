@@ -68,8 +68,8 @@ struct DriftStats {
   // Particle i. s2: squared displacement in this step; x, ref: position now
   // and at the last build. Written with !(a <= b) so that a NaN makes the
   // statistics NaN.
-  template <int Dim, bool P>
-  void add(const Domain<Dim, P>& domain, std::size_t i, double s2, const Vec<Dim>& x, const Vec<Dim>& ref) {
+  template <int Dim, Wrap W>
+  void add(const Domain<Dim, W>& domain, std::size_t i, double s2, const Vec<Dim>& x, const Vec<Dim>& ref) {
     const double d2 = domain.min_image(x - ref).squaredNorm();
     if (!(s2 <= max_step2)) max_step2 = s2;
     if (!(d2 <= fast2)) {

@@ -26,6 +26,10 @@
 
 namespace granular {
 
+// Which of Gear's stages one pass over the particles runs: the predictor,
+// the corrector, or the corrector of one step and the predictor of the next.
+enum class GearPass { predict, correct, correct_then_predict };
+
 // Gear's coefficients for forces that depend on velocities (c_2 = 1).
 inline constexpr double kGearC0 = 3.0 / 20.0, kGearC1 = 251.0 / 360.0, kGearC3 = 11.0 / 18.0, kGearC4 = 1.0 / 6.0,
                         kGearC5 = 1.0 / 60.0;
@@ -97,26 +101,26 @@ struct Gear5 {
           q3(p.aux_a[2]), q4(p.aux_a[3]), q5(p.aux_a[4]) {}
   };
 
-  template <bool P>
-  DriftStats first_half(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref, std::size_t lo,
+  template <Wrap W>
+  DriftStats first_half(ParticleStore<Dim>& p, const Domain<Dim, W>& domain, const Column<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next, const DriftStats& seed = DriftStats()) const {
-    return stages<false, true>(p, domain, x_ref, lo, hi, t_next, seed);
+    return stages<GearPass::predict>(p, domain, x_ref, lo, hi, t_next, seed);
   }
 
-  template <bool P>
-  void second_half(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, std::size_t lo, std::size_t hi) const {
-    stages<true, false>(p, domain, p.x, lo, hi, 0.0, DriftStats());
+  template <Wrap W>
+  void second_half(ParticleStore<Dim>& p, const Domain<Dim, W>& domain, std::size_t lo, std::size_t hi) const {
+    stages<GearPass::correct>(p, domain, p.x, lo, hi, 0.0, DriftStats());
   }
 
   // The corrector of one step and the predictor of the next in one pass:
   // each particle gets the same operations in the same order as from
   // second_half() then first_half() (the same bits), with its fifteen columns
   // read and written once instead of twice.
-  template <bool P>
-  DriftStats second_then_first(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref,
+  template <Wrap W>
+  DriftStats second_then_first(ParticleStore<Dim>& p, const Domain<Dim, W>& domain, const Column<V>& x_ref,
                                std::size_t lo, std::size_t hi, double t_next,
                                const DriftStats& seed = DriftStats()) const {
-    return stages<true, true>(p, domain, x_ref, lo, hi, t_next, seed);
+    return stages<GearPass::correct_then_predict>(p, domain, x_ref, lo, hi, t_next, seed);
   }
 
  private:
@@ -135,8 +139,8 @@ struct Gear5 {
   };
 
   // The predictor; returns the position's step.
-  template <bool P>
-  GRANULAR_INLINE V predict(State& s, const Domain<Dim, P>& domain) const {
+  template <Wrap W>
+  GRANULAR_INLINE V predict(State& s, const Domain<Dim, W>& domain) const {
     const V step = gear_predict(dt, s.x, s.v, s.r2, s.r3, s.r4, s.r5);
     domain.wrap(s.x);
     gear_predict(dt, s.q0, s.w, s.q2, s.q3, s.q4, s.q5);
@@ -144,9 +148,9 @@ struct Gear5 {
   }
 
   // The corrector, from the forces in the store.
-  template <bool P>
+  template <Wrap W>
   GRANULAR_INLINE void correct(State& s, const ParticleStore<Dim>& p, std::size_t i,
-                               const Domain<Dim, P>& domain) const {
+                               const Domain<Dim, W>& domain) const {
     const double h2 = 0.5 * dt * dt;
     gear_correct(c0, dt, V(h2 * (p.f[i] * p.inv_m[i] + gravity)), s.x, s.v, s.r2, s.r3, s.r4, s.r5);
     domain.wrap(s.x);
@@ -156,23 +160,23 @@ struct Gear5 {
   // The corrector and/or the predictor on particles [lo, hi). x_ref, t_next
   // and the statistics belong to the predictor; the corrector alone
   // (second_half) passes placeholders it never reads.
-  template <bool Correct, bool Predict, bool P>
-  DriftStats stages(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref, std::size_t lo,
+  template <GearPass Pass, Wrap W>
+  DriftStats stages(ParticleStore<Dim>& p, const Domain<Dim, W>& domain, const Column<V>& x_ref, std::size_t lo,
                     std::size_t hi, double t_next, const DriftStats& seed) const {
     // A local, returned as a copy (drift_stats.hpp: kept in registers).
     DriftStats st = seed;
     const auto pose = pose_at(motion, t_next);
     Columns c(p);
     for (std::size_t i = lo; i < hi; ++i) {
-      if constexpr (Predict) {
+      if constexpr (Pass != GearPass::correct) {
         if (place_if_wall(motion, pose, p, i, domain, x_ref[i], st)) continue;
       } else if constexpr (kHasMotion<Motion>) {
         if (p.species[i] == kWallSpecies) continue;
       }
       State s;
       s.load(p, c, i);
-      if constexpr (Correct) correct(s, p, i, domain);
-      if constexpr (Predict) {
+      if constexpr (Pass != GearPass::predict) correct(s, p, i, domain);
+      if constexpr (Pass != GearPass::correct) {
         const V step = predict(s, domain);
         st.add(domain, i, step.squaredNorm(), s.x, x_ref[i]);
       }

@@ -57,15 +57,15 @@ struct Leapfrog {
 
   // Stage 1 on particles [lo, hi); t_next = time at the end of the step. The
   // statistics start from seed (where to name fast particles: drift_stats.hpp).
-  template <bool P>
-  DriftStats first_half(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref, std::size_t lo,
+  template <Wrap W>
+  DriftStats first_half(ParticleStore<Dim>& p, const Domain<Dim, W>& domain, const Column<V>& x_ref, std::size_t lo,
                         std::size_t hi, double t_next, const DriftStats& seed = DriftStats()) const {
     return kicks_then_drift<1>(p, domain, x_ref, lo, hi, t_next, seed);
   }
 
   // Stage 2 on particles [lo, hi).
-  template <bool P>
-  void second_half(ParticleStore<Dim>& p, const Domain<Dim, P>&, std::size_t lo, std::size_t hi) const {
+  template <Wrap W>
+  void second_half(ParticleStore<Dim>& p, const Domain<Dim, W>&, std::size_t lo, std::size_t hi) const {
     for (std::size_t i = lo; i < hi; ++i) {
       if constexpr (kHasMotion<Motion>)
         if (p.species[i] == kWallSpecies) continue;
@@ -81,8 +81,8 @@ struct Leapfrog {
   // the same forces, so each particle gets the same operations in the same
   // order as from second_half() then first_half() (the same bits), with its
   // columns read and written once instead of twice.
-  template <bool P>
-  DriftStats second_then_first(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref,
+  template <Wrap W>
+  DriftStats second_then_first(ParticleStore<Dim>& p, const Domain<Dim, W>& domain, const Column<V>& x_ref,
                                std::size_t lo, std::size_t hi, double t_next,
                                const DriftStats& seed = DriftStats()) const {
     return kicks_then_drift<2>(p, domain, x_ref, lo, hi, t_next, seed);
@@ -99,8 +99,8 @@ struct Leapfrog {
   }
 
   // Kicks half kicks, then the drift, on particles [lo, hi).
-  template <int Kicks, bool P>
-  DriftStats kicks_then_drift(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, const Column<V>& x_ref,
+  template <int Kicks, Wrap W>
+  DriftStats kicks_then_drift(ParticleStore<Dim>& p, const Domain<Dim, W>& domain, const Column<V>& x_ref,
                               std::size_t lo, std::size_t hi, double t_next, const DriftStats& seed) const {
     // A local, returned as a copy (drift_stats.hpp: kept in registers).
     DriftStats st = seed;

@@ -33,8 +33,8 @@ class CellList {
   // [lo, hi): a parallel counting sort (per-thread histograms, one scan over
   // cells and threads, per-thread scatter). Particles keep their index order
   // within a cell, so the result is the same for any thread count.
-  template <bool P>
-  void build_in_region(const Domain<Dim, P>& domain, const Column<V>& x, const Column<double>& d, double d_large,
+  template <Wrap W>
+  void build_in_region(const Domain<Dim, W>& domain, const Column<V>& x, const Column<double>& d, double d_large,
                        double min_cell, int t, int nt, std::size_t lo, std::size_t hi) {
     const std::size_t n = x.size();
 #pragma omp single
@@ -214,8 +214,8 @@ class CellList {
   }
 
  private:
-  template <bool P>
-  int cell_index(const Domain<Dim, P>& domain, const V& p) const {
+  template <Wrap W>
+  int cell_index(const Domain<Dim, W>& domain, const V& p) const {
     int idx = 0;
     for (int k = 0; k < Dim; ++k) {
       int q = static_cast<int>(std::floor((p[k] - domain.lo[k]) / width_[k]));

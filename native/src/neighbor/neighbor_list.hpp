@@ -86,8 +86,8 @@ class NeighborList {
   // drums, half big and half small) there is one class and nothing changes.
   static constexpr double kLargeRatio = 1.5;
   static constexpr std::size_t kLargeShare = 64;
-  template <bool P>
-  void build(ParticleStore<Dim>& p, const Domain<Dim, P>& domain, double skin, double range_factor,
+  template <Wrap W>
+  void build(ParticleStore<Dim>& p, const Domain<Dim, W>& domain, double skin, double range_factor,
              int exclude_species = -1, bool forces = true, std::uint32_t particle_weight = 1) {
     const auto range = [range_factor](double a, double b) { return range_factor * (a + b); };
     skin_ = skin;
@@ -403,8 +403,8 @@ class NeighborList {
   // pair on the edge counts as unlisted and calls for a rebuild. The
   // candidates come from the build's cells within reach: a particle within
   // range of x_i now was within range + disp_max of it at the build.
-  template <class ForEachFast, bool P>
-  bool fast_pairs_listed(const ParticleStore<Dim>& p, const Domain<Dim, P>& domain, double disp_max,
+  template <class ForEachFast, Wrap W>
+  bool fast_pairs_listed(const ParticleStore<Dim>& p, const Domain<Dim, W>& domain, double disp_max,
                          ForEachFast&& for_each_fast) const {
     constexpr double kMargin = 1e-9;
     const double range_factor = range_factor_;
@@ -539,9 +539,9 @@ class NeighborList {
 };
 
 // O(N^2) oracle: every pair closer than range(d_i, d_j) + skin, by id.
-template <int Dim, bool P, class RangeFn>
+template <int Dim, Wrap W, class RangeFn>
 std::vector<std::pair<std::int64_t, std::int64_t>> brute_force_pairs(const ParticleStore<Dim>& p,
-                                                                      const Domain<Dim, P>& domain, double skin,
+                                                                      const Domain<Dim, W>& domain, double skin,
                                                                       RangeFn range) {
   std::vector<std::pair<std::int64_t, std::int64_t>> out;
   for (std::size_t i = 0; i < p.size(); ++i)
