@@ -7,7 +7,12 @@
 # continues from it (--resume), any other leftover is started again (--force).
 # Each job writes OUTPUT.log beside its output. The engine is $GRANULAR_BIN, or
 # build/granular (scripts/table1_campaign.sh pins one built from a fixed commit),
-# at niceness $CAMPAIGN_NICE (default 19).
+# at niceness $CAMPAIGN_NICE (default 19). Each run is started by setsid and
+# its scheduler group (/proc/PID/autogroup, where the kernel groups processes
+# by setsid) is given the same niceness: with autogroups on, a
+# process's niceness ranks it only within its group, and groups share the
+# cores equally, so without this a niced run would take as much as an
+# interactive build.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${GRANULAR_BIN:-$here/build/granular}"
@@ -19,7 +24,8 @@ run_one() {
   mkdir -p "$(dirname "$out")"
   mode=--force
   [ -e "$out" ] && [ -e "$out.ckpt" ] && mode=--resume
-  if nice -n "$niceness" "$bin" run "$scene" -o "$out" $mode --threads 1 -q "$@" >>"${out%.h5}.log" 2>&1; then
+  if setsid -w bash -c 'echo "$0" >/proc/self/autogroup 2>/dev/null || :; exec nice -n "$0" "$@"' \
+      "$niceness" "$bin" run "$scene" -o "$out" $mode --threads 1 -q "$@" >>"${out%.h5}.log" 2>&1; then
     touch "$out.done"
   else
     echo "failed: $out (see ${out%.h5}.log)" >&2

@@ -4,6 +4,7 @@ run cached before the check existed is adopted as it is, and a run cached
 under a row's earlier name is found under its present one."""
 import json
 import os
+import subprocess
 import sys
 
 import pytest
@@ -222,3 +223,24 @@ def test_a_run_is_limited_in_cpu_time_and_leaves_no_process_behind(tmp_path):
     except ProcessLookupError:
         alive = False
     assert not alive, "the driver's child outlived the run"
+
+
+AUTOGROUPS = "/proc/sys/kernel/sched_autogroup_enabled"
+
+
+@pytest.mark.skipif(not os.path.exists(AUTOGROUPS) or open(AUTOGROUPS).read().strip() != "1",
+                    reason="the kernel does not group processes by setsid here")
+def test_a_run_in_a_group_of_its_own_keeps_the_drivers_niceness():
+    # A child at nice 7 starts a run as run_timed does (start_new_session) and
+    # hands its niceness to the run's scheduler group; without that the group
+    # would be at 0, and a niced suite would not yield the cores.
+    code = ("import os, subprocess, sys\n"
+            "from compare.validate import yield_like_this_process\n"
+            "os.nice(7)\n"
+            "p = subprocess.Popen(['sleep', '5'], start_new_session=True)\n"
+            "before = open(f'/proc/{p.pid}/autogroup').read().split()[-1]\n"
+            "yield_like_this_process(p.pid)\n"
+            "after = open(f'/proc/{p.pid}/autogroup').read().split()[-1]\n"
+            "p.kill(); print(before, after)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=validate.ROOT, check=True)
+    assert out.stdout.split() == ["0", "7"], out
