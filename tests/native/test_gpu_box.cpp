@@ -10,7 +10,12 @@
 //   through make_box) advanced both ways gives the same positions,
 //   velocities and angular velocities to 1e-12 of their largest magnitude,
 //   with Gear's predictor-corrector and with the leapfrog, for every box
-//   law, while the shaker moves the walls of particles or the smooth walls.
+//   law, while the shaker moves the walls of particles or the smooth walls;
+// - the parts the GPU engine's run uses (gpu/box_run.hpp): a stepper made
+//   from a state and its list's reference positions continues bit for bit;
+//   a step beyond the move limit stops the stepper before the step is
+//   counted; the overlap screen against a brute-force search; the driver's
+//   health check stops with the CPU engine's message.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -24,6 +29,7 @@
 
 #include "gpu/box_kernels.hpp"
 #include "gpu/box_model.hpp"
+#include "gpu/box_run.hpp"
 #include "scene/scene_file.hpp"
 
 using namespace granular;
@@ -299,6 +305,116 @@ TEST(GpuBox, PiecesGiveTheSameBits) {
   b->download(pb);
   EXPECT_TRUE(pa.x == pb.x && pa.v == pb.v && pa.w == pb.w && pa.aux_v == pb.aux_v);
   EXPECT_FALSE(pa.x == model.p.x);
+}
+
+// A stepper made from a state and its list's reference positions (a resumed
+// run) continues as the stepper that wrote them, bit for bit, Gear's scaled
+// derivatives included.
+TEST(GpuBox, ResumesFromTheListsReferencePositionsBitForBit) {
+  for (const char* walls : {"particles", "smooth"}) {
+    const BoxSim sim = make_box(small_box("gear", "poeschel_herrmann", "normal", walls));
+    const gpu::BoxModel model = gpu::box_model(sim);
+    const auto whole = gpu::make_host_box(model);
+    whole->advance(150);
+    gpu::BoxModel saved = model;
+    whole->download(saved.p);
+    saved.time = whole->time();
+    saved.step_count = whole->step_count();
+    saved.x_ref = whole->reference_positions();
+    EXPECT_FALSE(saved.x_ref == saved.p.x);  // the list was built before this step
+    const auto resumed = gpu::make_host_box(std::vector<gpu::BoxModel>{saved});
+    whole->advance(150);
+    resumed->advance(150);
+    ParticleStore<2> a = model.p, b = model.p;
+    whole->download(a);
+    resumed->download(b);
+    EXPECT_TRUE(a.x == b.x && a.v == b.v && a.w == b.w && a.f == b.f && a.aux_v == b.aux_v && a.aux_a == b.aux_a)
+        << walls;
+    EXPECT_EQ(whole->time(), resumed->time());
+    EXPECT_EQ(resumed->step_count(), 300);
+  }
+  EXPECT_THROW(gpu::make_host_box(std::vector<gpu::BoxModel>(2)), std::invalid_argument);
+}
+
+// A step that moves a particle further than max_step_move stops the stepper
+// before the step is counted, and the CPU engine's check names the culprit
+// from the downloaded state.
+TEST(GpuBox, AStepBeyondTheMoveLimitStopsTheStepper) {
+  BoxSim sim = make_box(small_box("leapfrog", "poeschel_herrmann", "normal"));
+  gpu::BoxModel model = gpu::box_model(sim);
+  model.max_step_move = 1e-4;  // cm: the falling grains pass it within a few steps
+  const auto s = gpu::make_host_box(model);
+  long before = -1;
+  try {
+    s->advance(400);
+    ADD_FAILURE() << "no StepUnstable";
+  } catch (const gpu::StepUnstable& e) {
+    EXPECT_EQ(e.replica, 0);
+    before = s->step_count();
+  }
+  EXPECT_GE(before, 0);
+  EXPECT_LT(before, 400);
+}
+
+// The overlap screen: the largest overlap of any pair in range, over every
+// pair (brute force), as a fraction of the contact distance; with smooth
+// walls, of any grain with a wall (FlatBoxWalls::deepest).
+TEST(GpuBox, TheOverlapScreenIsTheWorstOverlap) {
+  for (const char* walls : {"particles", "smooth"}) {
+    const BoxSim sim = make_box(small_box("gear", "poeschel_herrmann", "normal", walls));
+    const gpu::BoxModel model = gpu::box_model(sim);
+    const auto s = gpu::make_host_box(model);
+    s->advance(300);
+    ParticleStore<2> p = model.p;
+    s->download(p);
+    double worst = -INFINITY;
+    using Law = PoeschelHerrmannLaw<2, Damping::normal>;
+    for (std::size_t i = 0; i < p.size(); ++i)
+      for (std::size_t j = 0; j < p.size(); ++j) {
+        if (i == j || (p.species[i] == kWallSpecies && p.species[j] == kWallSpecies)) continue;
+        const double r = (p.x[i] - p.x[j]).norm(), rc = Law::range(p.d[i], p.d[j]);
+        if (r < rc) worst = std::max(worst, (rc - r) / rc);
+      }
+    if (model.walls == gpu::BoxWalls::smooth) worst = std::max(worst, model.flat.deepest(p, s->time()).fraction);
+    const std::vector<double> screen = s->worst_overlap();
+    ASSERT_EQ(screen.size(), 1u);
+    EXPECT_GT(worst, 0.0) << walls;
+    EXPECT_NEAR(screen[0], worst, 1e-15) << walls;
+  }
+}
+
+// The driver's health check with the overlap limit lowered: the device
+// screen finds the overlap, and the CPU engine's check on the downloaded
+// state stops with the message the CPU engine gives at the same step.
+TEST(GpuBox, TheDriversHealthCheckStopsWithTheCpuEnginesMessage) {
+  for (const char* walls : {"particles", "smooth"}) {
+    const BoxScene s = small_box("gear", "poeschel_herrmann", "normal", walls);
+    BoxSim gpu_sim = make_box(s), cpu_sim = make_box(s);
+    const auto driver = gpu::make_box_driver(s, gpu_sim, static_cast<gpu::BoxStepperFactory>(&gpu::make_host_box));
+    driver->start();
+    driver->advance(300);
+    std::visit([](auto& v) { v.advance(300); }, cpu_sim);
+    HealthLimits lim;
+    driver->check_health(lim);  // 40 %: a healthy box
+    lim.max_overlap = 1e-3;
+    std::string gpu_message, cpu_message;
+    try {
+      driver->check_health(lim);
+    } catch (const UnstableError& e) {
+      gpu_message = e.what();
+    }
+    std::visit(
+        [&](auto& v) {
+          try {
+            check_box_health(v, lim);
+          } catch (const UnstableError& e) {
+            cpu_message = e.what();
+          }
+        },
+        cpu_sim);
+    EXPECT_EQ(gpu_message.rfind("simulation unstable at step 300 (t = ", 0), 0u) << gpu_message;
+    EXPECT_EQ(gpu_message, cpu_message) << walls;
+  }
 }
 
 }  // namespace

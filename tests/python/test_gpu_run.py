@@ -6,7 +6,8 @@ engine to rounding; a resumed run repeats the uninterrupted one bit for bit;
 replica k of `--replicas K` is, bit for bit, the single run with seed + k;
 a capped drum follows the CPU engine too; an unstable run stops with the
 CPU engine's message and writes no NaN; the scenes the GPU engine does not
-run (the shaken box) are refused; `granular bench` times it."""
+run (the particles scenes) are refused; `granular bench` times it. The
+shaken box's run: tests/python/test_gpu_box_run.py."""
 import json
 import os
 import subprocess
@@ -20,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
 BIN = Path(os.environ.get("GRANULAR_BIN", ROOT / "build" / "granular"))
 DRUM = ROOT / "scenes" / "drum" / "A.toml"
 CAPPED = ROOT / "scenes" / "drum" / "R.toml"
-BOX = ROOT / "scenes" / "box" / "f3.0_big.toml"
+PARTICLES = ROOT / "scenes" / "impacts" / "wall_normal.toml"
 # Drum #A shortened to L = 8 (264 particles): the initial collapse, with
 # frames every 0.1 rotation and profiles every 0.02.
 SETS = ["drum.length=8", "run.rotations=0.4", "run.snapshot_every=0.1", "run.profile_every=0.02"]
@@ -225,13 +226,12 @@ def test_capped_drum_on_gpu_host_follows_the_cpu_engine(tmp_path):
 
 @pytest.mark.parametrize("device", ["gpu", "gpu-host"])
 def test_scenes_the_gpu_engine_does_not_run_are_refused(tmp_path, device):
-    """The shaken box: its kernels exist (gpu/box_kernels.hpp), its run loop
-    not yet."""
-    r = run(BOX, "-o", tmp_path / "out.h5", "--device", device, sets=[])
+    """A particles scene: the GPU engine runs drums and the shaken box."""
+    r = run(PARTICLES, "-o", tmp_path / "out.h5", "--device", device, sets=[])
     assert r.returncode == 2, r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith(f"error: --device {device}: "), r.stderr
-    assert "drum scenes only" in lines[0] and lines[0].endswith("run it with --device cpu"), lines[0]
+    assert "drum and shaken-box scenes only" in lines[0] and lines[0].endswith("run it with --device cpu"), lines[0]
     assert list(tmp_path.iterdir()) == []
 
 

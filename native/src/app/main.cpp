@@ -34,6 +34,9 @@
 #include "engine/drum.hpp"
 #include "engine/particles.hpp"
 #include "engine/run_control.hpp"
+#include "gpu/box_gpu.hpp"
+#include "gpu/box_model.hpp"
+#include "gpu/box_run.hpp"
 #include "gpu/drum_gpu.hpp"
 #include "gpu/drum_model.hpp"
 #include "gpu/drum_run.hpp"
@@ -287,15 +290,19 @@ struct RunOptions {
 // or with its kernels built by the host compiler and run on the CPU (a
 // device for checking the GPU engine without a GPU). Refused, with the
 // reason, before anything is written: a scene the GPU engine does not run
-// (gpu/drum_run.cpp, unsupported_scene), --device gpu in a build without
-// CUDA or without a visible CUDA device, --replicas on the CPU.
+// (gpu/stepper_driver.hpp, unsupported_scene), --device gpu in a build without
+// CUDA or without a visible CUDA device, --replicas on the CPU, more than one
+// replica of a shaken box (its stepper holds one box).
 void check_device(const std::string& device, int replicas, const Loaded& l) {
   if (device == "cpu") {
     if (replicas > 0) throw UsageError("--replicas: replicas run on the GPU engine only (--device gpu or gpu-host)");
     return;
   }
-  const std::string why = gpu::unsupported_scene(l.kind, l.drum ? &*l.drum : nullptr);
+  const std::string why = gpu::unsupported_scene(l.kind);
   if (!why.empty()) throw UsageError("--device " + device + ": " + why + "; run it with --device cpu");
+  if (l.box && replicas > 1)
+    throw UsageError("--replicas " + std::to_string(replicas) +
+                     ": the GPU engine runs one shaken box at a time (docs/gpu.md); run each particles.seed on its own");
   if (device != "gpu") return;
 #if defined(GRANULAR_HAVE_CUDA)
   const std::string none = gpu::cuda_unavailable();
@@ -313,6 +320,15 @@ gpu::StepperFactory stepper_factory(const std::string& device) {
   if (device == "gpu") return &gpu::make_cuda_drum;
 #endif
   if (device == "gpu-host") return static_cast<gpu::StepperFactory>(&gpu::make_host_drum);
+  throw UsageError("--device " + device + ": not a GPU engine device");
+}
+
+// The same for the shaken box.
+gpu::BoxStepperFactory box_stepper_factory(const std::string& device) {
+#if defined(GRANULAR_HAVE_CUDA)
+  if (device == "gpu") return static_cast<gpu::BoxStepperFactory>(&gpu::make_cuda_box);
+#endif
+  if (device == "gpu-host") return static_cast<gpu::BoxStepperFactory>(&gpu::make_host_box);
   throw UsageError("--device " + device + ": not a GPU engine device");
 }
 
@@ -389,6 +405,31 @@ void check_same_scene(const std::string& ckpt_path, const std::string& saved_jso
   }
 }
 
+// The checkpoint beside out_path that --resume continues from, written for
+// the scene `json`, by the GPU engine (gpu) or the CPU engine; refused with
+// the reason otherwise.
+CheckpointData checkpoint_to_resume(const std::string& out_path, const std::string& json, bool gpu) {
+  const std::string ckpt_path = checkpoint_path(out_path);
+  if (!std::filesystem::exists(out_path)) throw UsageError(out_path + ": no output file to resume");
+  if (!std::filesystem::exists(ckpt_path))
+    throw UsageError(ckpt_path + ": no checkpoint to resume from (a run writes one every --checkpoint-every "
+                                 "minutes, on SIGINT/SIGTERM and at its end; start the run again with --force)");
+  CheckpointData saved;
+  try {
+    saved = read_checkpoint(ckpt_path);
+  } catch (const std::runtime_error& e) {
+    throw UsageError(e.what());
+  }
+  check_same_scene(ckpt_path, saved.scene_json, json);
+  const bool by_gpu = saved.ints.count(gpu::kCheckpointKey) > 0;
+  if (gpu && !by_gpu)
+    throw UsageError(ckpt_path + ": the checkpoint was written by --device cpu; resume it with --device cpu");
+  if (!gpu && by_gpu)
+    throw UsageError(ckpt_path + ": the checkpoint was written by the GPU engine; resume it with --device gpu or "
+                                 "--device gpu-host");
+  return saved;
+}
+
 // A particles scene keeps no checkpoint: it runs from its scene file alone.
 int run_particles_scene(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
   if (o.resume)
@@ -435,18 +476,7 @@ int run_gpu_drum(const Loaded& l, const std::string& scene_path, std::string out
   for (int k = 0; k < replicas; ++k) {
     const std::string ckpt_path = checkpoint_path(outs[k]);
     if (o.resume) {
-      if (!std::filesystem::exists(outs[k])) throw UsageError(outs[k] + ": no output file to resume");
-      if (!std::filesystem::exists(ckpt_path))
-        throw UsageError(ckpt_path + ": no checkpoint to resume from (a run writes one every --checkpoint-every "
-                                     "minutes, on SIGINT/SIGTERM and at its end; start the run again with --force)");
-      try {
-        saved[k] = read_checkpoint(ckpt_path);
-      } catch (const std::runtime_error& e) {
-        throw UsageError(e.what());
-      }
-      check_same_scene(ckpt_path, saved[k]->scene_json, scenes[k].json);
-      if (!saved[k]->ints.count(gpu::kCheckpointKey))
-        throw UsageError(ckpt_path + ": the checkpoint was written by --device cpu; resume it with --device cpu");
+      saved[k] = checkpoint_to_resume(outs[k], scenes[k].json, true);
       if (saved[k]->step != saved[0]->step)
         throw UsageError(ckpt_path + ": the replicas' checkpoints are of different steps (" +
                          std::to_string(saved[k]->step) + " and " + std::to_string(saved[0]->step) + ")");
@@ -506,26 +536,69 @@ int run_gpu_drum(const Loaded& l, const std::string& scene_path, std::string out
   return 0;
 }
 
+// The shaken box's output file, with the attributes of its scene.
+std::unique_ptr<H5Output> open_box_output(const Loaded& l, const std::string& scene_path, const std::string& out_path,
+                                          std::size_t n, const RowCounts* rows) {
+  const BoxScene& s = *l.box;
+  auto out = std::make_unique<H5Output>(out_path, 2, static_cast<std::int64_t>(n), true, rows);
+  common_attrs<2>(*out, l, scene_path);
+  out->attr("frequency", s.frequency);
+  out->attr("amplitude", s.amplitude);
+  out->attr("settle", s.settle);
+  out->attr("box_width", s.width);
+  out->attr("wall_radius", s.wall_radius);
+  out->group_attr("frames", "species_names", {"small", "big", "wall"});
+  return out;
+}
+
+// A shaken-box run on the GPU engine (docs/gpu.md): the CPU engine's run
+// loop, output and checkpoints, stepped by the box's GPU stepper. One box:
+// --replicas 1 names the output as a drum's replica 0 (OUT_r00.h5).
+int run_gpu_box(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
+  if (out_path.empty()) out_path = l.name() + ".h5";
+  if (o.replicas > 0) out_path = replica_output(out_path, 0, 1);
+  const std::string ckpt_path = checkpoint_path(out_path);
+  std::optional<CheckpointData> saved;
+  if (o.resume) {
+    saved = checkpoint_to_resume(out_path, l.json, true);
+  } else {
+    check_output(out_path, o.force);
+    std::filesystem::remove(ckpt_path);  // a checkpoint of an earlier run into this output
+  }
+  install_stop_handlers();
+  RunControl ctl;
+  ctl.checkpoint = ckpt_path;
+  ctl.every_seconds = 60.0 * o.checkpoint_minutes;
+  ctl.every_steps = o.checkpoint_steps;
+  ctl.resume = saved ? &*saved : nullptr;
+  ctl.meta.scene_json = l.json;
+  ctl.meta.engine_version = kVersion;
+  ctl.meta.threads = omp_get_max_threads();
+  ctl.meta.seed = static_cast<std::int64_t>(l.box->seed);
+  const BoxScene& s = *l.box;
+  BoxSim sim = make_box(s);
+  const auto n = std::visit([](auto& v) { return v.p.size(); }, sim);
+  const auto out = open_box_output(l, scene_path, out_path, n, saved ? &saved->rows : nullptr);
+  std::fprintf(stderr, "granular %s: shaken box %s (%s), %zu particles, %.3g s settling + %.4g s shaking, device %s -> %s\n",
+               kVersion, s.name.c_str(), scene_path.c_str(), n, s.settle, s.duration, o.device.c_str(),
+               out_path.c_str());
+  if (saved)
+    std::fprintf(stderr, "resuming from step %lld (t = %.6g s)\n", static_cast<long long>(saved->step), saved->time);
+  const auto driver = gpu::make_box_driver(s, sim, box_stepper_factory(o.device));
+  const RunReport r = run_box(s, sim, out.get(), !o.quiet && isatty(fileno(stderr)), ctl, *driver);
+  std::fprintf(stderr, "done: %ld steps in %.1f s, %.3g particle-steps/s\n", r.steps, r.seconds,
+               r.particle_steps_per_second);
+  return 0;
+}
+
 int run_scene(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
   if (l.particles) return run_particles_scene(l, scene_path, out_path, o);
-  if (o.device != "cpu") return run_gpu_drum(l, scene_path, out_path, o);
+  if (o.device != "cpu") return l.box ? run_gpu_box(l, scene_path, out_path, o) : run_gpu_drum(l, scene_path, out_path, o);
   if (out_path.empty()) out_path = l.name() + ".h5";
   const std::string ckpt_path = checkpoint_path(out_path);
   std::optional<CheckpointData> saved;
   if (o.resume) {
-    if (!std::filesystem::exists(out_path)) throw UsageError(out_path + ": no output file to resume");
-    if (!std::filesystem::exists(ckpt_path))
-      throw UsageError(ckpt_path + ": no checkpoint to resume from (a run writes one every --checkpoint-every "
-                                   "minutes, on SIGINT/SIGTERM and at its end; start the run again with --force)");
-    try {
-      saved = read_checkpoint(ckpt_path);
-    } catch (const std::runtime_error& e) {
-      throw UsageError(e.what());
-    }
-    check_same_scene(ckpt_path, saved->scene_json, l.json);
-    if (saved->ints.count(gpu::kCheckpointKey))
-      throw UsageError(ckpt_path + ": the checkpoint was written by the GPU engine; resume it with --device gpu or "
-                                   "--device gpu-host");
+    saved = checkpoint_to_resume(out_path, l.json, false);
     if (!o.threads_given)
       omp_set_num_threads(static_cast<int>(saved->threads));
     else if (saved->threads != omp_get_max_threads())
@@ -569,20 +642,13 @@ int run_scene(const Loaded& l, const std::string& scene_path, std::string out_pa
     const BoxScene& s = *l.box;
     BoxSim sim = make_box(s);
     const auto n = std::visit([](auto& v) { return v.p.size(); }, sim);
-    H5Output out(out_path, 2, static_cast<std::int64_t>(n), true, rows);
-    common_attrs<2>(out, l, scene_path);
-    out.attr("frequency", s.frequency);
-    out.attr("amplitude", s.amplitude);
-    out.attr("settle", s.settle);
-    out.attr("box_width", s.width);
-    out.attr("wall_radius", s.wall_radius);
-    out.group_attr("frames", "species_names", {"small", "big", "wall"});
+    const auto out = open_box_output(l, scene_path, out_path, n, rows);
     std::fprintf(stderr, "granular %s: shaken box %s (%s), %zu particles, %.3g s settling + %.4g s shaking, %d thread(s) -> %s\n",
                  kVersion, s.name.c_str(), scene_path.c_str(), n, s.settle, s.duration, omp_get_max_threads(),
                  out_path.c_str());
     if (saved)
       std::fprintf(stderr, "resuming from step %lld (t = %.6g s)\n", static_cast<long long>(saved->step), saved->time);
-    r = run_box(s, sim, &out, progress, ctl);
+    r = run_box(s, sim, out.get(), progress, ctl);
   }
   std::fprintf(stderr, "done: %ld steps in %.1f s, %.3g particle-steps/s\n%s", r.steps, r.seconds,
                r.particle_steps_per_second, format_breakdown(r.breakdown).c_str());
@@ -782,12 +848,31 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
   return 0;
 }
 
-// granular bench --device gpu|gpu-host: the GPU engine's stepper on K seeds
-// of a drum scene (particles.seed + k), settled `settle` rotations on the
-// device, then `rounds` stretches of `rotations` rotations timed one after
-// another; the median stretch is reported in the CPU bench's fields.
-int run_gpu_bench(const Loaded& l, const std::string& device, int replicas, int rounds, double settle,
-                  double rotations, bool as_json) {
+// The GPU engine's stepper for `granular bench`: K seeds of a drum scene
+// (particles.seed + k) or one shaken box, as a run starts them, with the
+// steps of `settle` and of `length` (rotations of a drum, seconds of a box).
+struct GpuBenchStepper {
+  std::unique_ptr<gpu::DrumStepper> drum;
+  std::unique_ptr<gpu::BoxStepper> box;
+  long particles = 0, settle_steps = 0, steps = 0;
+  void advance(long n) { drum ? drum->advance(n) : box->advance(n); }
+  long builds() const { return drum ? drum->builds() : box->builds(); }
+  const char* backend() const { return drum ? drum->backend() : box->backend(); }
+};
+
+GpuBenchStepper gpu_bench_stepper(const Loaded& l, const std::string& device, int replicas, double settle,
+                                  double length) {
+  GpuBenchStepper b;
+  if (l.box) {
+    const BoxScene& s = *l.box;
+    const BoxSim sim = make_box(s);
+    const std::vector<gpu::BoxModel> models{gpu::box_model(sim)};
+    b.box = box_stepper_factory(device)(models);
+    b.particles = static_cast<long>(models.front().p.size());
+    b.settle_steps = std::lround((settle < 0 ? 1.0 : settle) / s.dt);
+    b.steps = std::max(1L, std::lround(length / s.dt));
+    return b;
+  }
   const DrumScene& s = *l.drum;
   std::vector<gpu::DrumModel> models;
   for (int k = 0; k < replicas; ++k) {
@@ -797,11 +882,25 @@ int run_gpu_bench(const Loaded& l, const std::string& device, int replicas, int 
     if (k == 0) check_device_memory(device, sim, replicas);
     models.push_back(gpu::drum_model(sim));
   }
-  const auto stepper = stepper_factory(device)(models);
-  long particles = 0;
-  for (const auto& m : models) particles += static_cast<long>(m.p.size());
-  stepper->advance(s.steps_per(settle < 0 ? 0.5 : settle));
-  const long steps = std::max(1L, s.steps_per(rotations));
+  b.drum = stepper_factory(device)(models);
+  for (const auto& m : models) b.particles += static_cast<long>(m.p.size());
+  b.settle_steps = s.steps_per(settle < 0 ? 0.5 : settle);
+  b.steps = std::max(1L, s.steps_per(length));
+  return b;
+}
+
+// granular bench --device gpu|gpu-host: the GPU engine's stepper on K seeds
+// of a drum scene (particles.seed + k) or on a shaken box, settled `settle`
+// rotations or seconds on the device, then `rounds` stretches of `length`
+// rotations or seconds timed one after another; the median stretch is
+// reported in the CPU bench's fields.
+int run_gpu_bench(const Loaded& l, const std::string& device, int replicas, int rounds, double settle,
+                  double length, bool as_json) {
+  GpuBenchStepper b = gpu_bench_stepper(l, device, replicas, settle, length);
+  GpuBenchStepper* const stepper = &b;
+  const long particles = b.particles;
+  stepper->advance(b.settle_steps);
+  const long steps = b.steps;
   std::vector<double> rates, seconds;
   std::vector<long> builds;
   for (int k = 0; k < rounds; ++k) {
@@ -955,7 +1054,8 @@ int main(int argc, char** argv) {
       if (l.particles) throw UsageError(scene_path + ": granular bench times drum and shaken-box scenes only");
       check_device(bench_device, bench_replicas, l);
       if (bench_device != "cpu")
-        return run_gpu_bench(l, bench_device, std::max(1, bench_replicas), repeat, settle, bench_rot, bench_json);
+        return run_gpu_bench(l, bench_device, std::max(1, bench_replicas), repeat, settle,
+                             l.drum ? bench_rot : bench_seconds, bench_json);
       if (bench_threads.empty()) bench_threads = {1, omp_get_num_procs()};
       return run_bench(l, bench_threads, repeat, ceiling, settle, l.drum ? bench_rot : bench_seconds, bench_json);
     }

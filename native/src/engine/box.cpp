@@ -94,24 +94,6 @@ void check_contained(const Sim& sim, const BoxScene& s) {
   }
 }
 
-// check_health (engine/health.hpp) sees the wall particles' contacts in the
-// neighbour list; smooth walls are not in it, so their overlaps are checked
-// here against the same limit.
-template <class Sim>
-void check_smooth_walls(const Sim& sim, const HealthLimits& lim) {
-  if constexpr (kSmooth<Sim>) {
-    const auto o = std::get<FlatBoxWalls>(sim.walls).deepest(sim.p, sim.time);
-    if (o.fraction <= lim.max_overlap) return;
-    std::ostringstream os;
-    os << "simulation unstable at step " << sim.step_count << " (t = " << sim.time << "): particle id "
-       << sim.p.id[o.index] << " overlaps the " << o.wall << " by " << 100.0 * o.fraction
-       << " % of its contact distance with the wall (limit " << 100.0 * lim.max_overlap
-       << " %): the contacts are too soft for the load, or a collision was not resolved. Likely cause: "
-       << lim.dt_hint() << ", or a contact stiffness too low for the weight it carries.";
-    throw UnstableError(os.str());
-  }
-}
-
 template <class Sim>
 std::size_t big_index(const Sim& sim) {
   for (std::size_t i = 0; i < sim.p.size(); ++i)
@@ -136,8 +118,12 @@ HealthLimits box_health(const BoxScene& s) {
   return h;
 }
 
+// The run loop, the state stepped by its simulation (driver null) or by a
+// driver, which is asked for the state where the loop observes, checks or
+// checkpoints.
 template <class Sim>
-RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, const RunControl& ctl) {
+RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, const RunControl& ctl,
+                   RunDriver* driver) {
   const HealthLimits health = box_health(s);
   health.apply(sim);
   const long total = std::lround((s.settle + s.duration) / s.dt);
@@ -162,10 +148,11 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
       trace = true;
       trace_k = static_cast<long>(std::floor(c * s.trace_per_cycle));
     }
+    if (driver && (snap || trace)) driver->fetch(0);
     if (snap || trace) check_contained(sim, s);
     if (out && snap) {
       out->frame(sim.time, sim.step_count, sim.p);
-      write_census(*out, census_h, sim.time, coulomb_census(sim));
+      write_census(*out, census_h, sim.time, driver ? driver->census(0) : coulomb_census(sim));
     }
     if (out && trace && has_big) {
       const std::size_t b = big_index(sim);
@@ -173,7 +160,10 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
                    {sim.p.x[b].x(), sim.p.x[b].y()}, {sim.p.v[b].x(), sim.p.v[b].y()}});
     }
   };
-  const long start = begin_run(sim, ctl, {&snap_k, &trace_k}, "shaken-box", [&] { observe(true); });
+  const long start = driver ? begin_run(sim, ctl, {&snap_k, &trace_k}, "shaken-box", [&] { observe(true); },
+                                        [&](const CheckpointData& c) { driver->restore(0, c); })
+                            : begin_run(sim, ctl, {&snap_k, &trace_k}, "shaken-box", [&] { observe(true); });
+  if (driver) driver->start();
   Checkpointer checkpoints(ctl);
   const auto t0 = start_loop(sim, out);
   auto last = t0;
@@ -193,15 +183,24 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
   run_loop(out, progress, [&] {
     for (long k = start; k < total;) {
       const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
-      sim.advance(next - k);
+      if (driver)
+        driver->advance(next - k);
+      else
+        sim.advance(next - k);
       k = next;
       if (k % health.every == 0 || k == total) {
-        check_health(sim, health);
-        check_smooth_walls(sim, health);
+        if (driver)
+          driver->check_health(health);
+        else
+          check_box_health(sim, health);
       }
       observe(k == settle_steps || k == total);
       const long saved = checkpoints.written();
-      checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total);
+      if (driver)
+        checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total,
+                               [&](CheckpointData& c) { driver->capture(0, c); });
+      else
+        checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total);
       if (out && checkpoints.written() != saved && k != total) out->write_xdmf();  // current with the checkpoint
       if (progress && (k % 500 == 0 || k == total)) {
         const auto now = std::chrono::steady_clock::now();
@@ -251,7 +250,12 @@ BoxSim make_box(const BoxScene& s) {
 }
 
 RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, const RunControl& ctl) {
-  return std::visit([&](auto& v) { return run_impl(s, v, out, progress, ctl); }, sim);
+  return std::visit([&](auto& v) { return run_impl(s, v, out, progress, ctl, nullptr); }, sim);
+}
+
+RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, const RunControl& ctl,
+                  RunDriver& driver) {
+  return std::visit([&](auto& v) { return run_impl(s, v, out, progress, ctl, &driver); }, sim);
 }
 
 BoxSim settle_box(const BoxScene& s, double settle) {

@@ -132,7 +132,7 @@ HealthLimits drum_health(const DrumScene& s) {
 // The run loop of one drum (driver null: stepped by its simulation) or of
 // several stepped by a driver, all on the first member's schedule.
 template <class Sim>
-RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, DrumDriver* driver, bool progress) {
+RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, RunDriver* driver, bool progress) {
   const std::size_t members = ms.size();
   std::vector<Sim*> sims;
   for (DrumMember& m : ms) {
@@ -307,7 +307,7 @@ RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progres
       [&](auto& v) { return run_impl<std::decay_t<decltype(v)>>(s, ms, nullptr, progress); }, sim);
 }
 
-RunReport run_drums(const DrumScene& s, std::vector<DrumMember>& members, DrumDriver& driver, bool progress) {
+RunReport run_drums(const DrumScene& s, std::vector<DrumMember>& members, RunDriver& driver, bool progress) {
   if (members.empty()) throw std::logic_error("run_drums: no member");
   return std::visit(
       [&](auto& v) { return run_impl<std::decay_t<decltype(v)>>(s, members, &driver, progress); },

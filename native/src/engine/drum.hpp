@@ -14,6 +14,7 @@
 #include "engine/coulomb_census.hpp"
 #include "engine/health.hpp"
 #include "engine/run_control.hpp"
+#include "engine/run_driver.hpp"
 #include "engine/simulation.hpp"
 #include "integrate/leapfrog.hpp"
 #include "io/h5_output.hpp"
@@ -48,31 +49,6 @@ std::vector<double> axial_small_fraction(const ParticleStore<3>& p, const std::v
 RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progress,
                    const RunControl& ctl = RunControl{});
 
-// A drum run whose state is stepped elsewhere than in its simulations (the
-// GPU path, gpu/drum_run.hpp): run_drums gives it the steps and asks it for
-// the state where the run observes, checks or checkpoints. The run's
-// members (DrumMember) are drums of one scene stepped side by side; member
-// r's simulation holds the scene's model and, once fetched, the state.
-class DrumDriver {
- public:
-  virtual ~DrumDriver() = default;
-  // Member r's state from its checkpoint into its simulation (before start).
-  virtual void restore(std::size_t r, const CheckpointData& c) = 0;
-  // Every member's simulation holds the state to step from (new or restored).
-  virtual void start() = 0;
-  // n steps of every member; each simulation's time and step count follow.
-  // Throws UnstableError as Simulation::advance does.
-  virtual void advance(long n) = 0;
-  // Member r's current state into its simulation's store.
-  virtual void fetch(std::size_t r) = 0;
-  // engine/health.hpp's check of every member (throws its UnstableError).
-  virtual void check_health(const HealthLimits& lim) = 0;
-  // Member r's Coulomb census (engine/coulomb_census.hpp) of its fetched state.
-  virtual CoulombCensus census(std::size_t r) = 0;
-  // Member r's state as a checkpoint holds it (engine/checkpoint.hpp, capture).
-  virtual void capture(std::size_t r, CheckpointData& c) = 0;
-};
-
 // One drum of a run: its simulation, output (may be null) and checkpoints.
 struct DrumMember {
   DrumSim* sim;
@@ -82,8 +58,8 @@ struct DrumMember {
 
 // Runs every member s.rotations rotations (members of one scene, so one
 // schedule of output and checks; their simulations the same alternative),
-// stepped by the driver.
-RunReport run_drums(const DrumScene& s, std::vector<DrumMember>& members, DrumDriver& driver, bool progress);
+// stepped by the driver (engine/run_driver.hpp; member r is the driver's r).
+RunReport run_drums(const DrumScene& s, std::vector<DrumMember>& members, RunDriver& driver, bool progress);
 
 // Settle for `settle` rotations, then time `rotations` rotations.
 // For `granular bench`: the drum after `settle` rotations (no output), and

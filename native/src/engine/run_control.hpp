@@ -151,7 +151,7 @@ class Checkpointer {
     after_step(sim, out, counters, final_step, [&](CheckpointData& c) { capture(sim, c); });
   }
   // The same, the state captured by capture_into(c) (a state held elsewhere:
-  // the GPU path, gpu/drum_run.hpp).
+  // the GPU path, gpu/stepper_driver.hpp).
   template <class Sim, class Capture>
   void after_step(const Sim& sim, const H5Output* out, std::initializer_list<std::int64_t> counters, bool final_step,
                   Capture capture_into) {

@@ -255,7 +255,7 @@ class Simulation {
   // max_step_move (or made one's state not finite) raises, naming the
   // culprit from the current state, which is that step's after its first
   // stage, before it is counted. For a state stepped elsewhere (the GPU
-  // path, gpu/drum_run.hpp) that found the step unstable.
+  // path, gpu/stepper_driver.hpp) that found the step unstable.
   [[noreturn]] void report_unstable_step() const {
     Stats st;
     st.max_step2 = std::numeric_limits<double>::infinity();

@@ -13,4 +13,8 @@ std::unique_ptr<BoxStepper> make_cuda_box(const BoxModel& m) {
   return cuda::make_box_stepper(m);
 }
 
+std::unique_ptr<BoxStepper> make_cuda_box(const std::vector<BoxModel>& models) {
+  return make_cuda_box(only_box(models));
+}
+
 }  // namespace granular::gpu

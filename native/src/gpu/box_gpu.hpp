@@ -10,16 +10,22 @@
 //
 // The interface is backend-neutral, as the drum's (gpu/drum_gpu.hpp): a
 // BoxModel (everything a step needs, as plain values, taken from a CPU box
-// simulation, gpu/box_model.hpp) and a BoxStepper that advances it.
+// simulation, gpu/box_model.hpp) and a BoxStepper that advances it, with the
+// DrumStepper's interface so that one driver (gpu/stepper_driver.hpp) runs
+// either on the CPU engine's run loop. A BoxStepper holds one box (replica 0).
 #pragma once
 #include <array>
+#include <limits>
 #include <memory>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "boundary/flat_box_walls.hpp"
 #include "contact/laws.hpp"
 #include "core/particles.hpp"
 #include "core/type_list.hpp"
+#include "gpu/step_unstable.hpp"
 #include "integrate/motion.hpp"
 
 namespace granular {
@@ -63,9 +69,19 @@ struct BoxModel {
   FlatBoxWalls flat;
   double time = 0.0;  // of the state below
   long step_count = 0;
+  // The longest move a particle may make in one step (Simulation::max_step_move:
+  // half the smallest diameter, or the scene's speed limit times dt), the wall
+  // particles' moves included; a step that moves one further stops the
+  // stepper (StepUnstable).
+  double max_step_move = std::numeric_limits<double>::infinity();
   // The state, in the order the stepper keeps, with Gear's scaled
   // derivatives in the aux columns (Gear5::start).
   ParticleStore<2> p;
+  // Empty: a new start (the list is built from p.x). Otherwise a resumed one:
+  // the positions the neighbour list was last built from (the list is
+  // rebuilt from them, row for row the list in use). p.f, p.tq are the last
+  // step's forces either way, used as they are.
+  Column<Eigen::Vector2d> x_ref;
 };
 
 // Advances a BoxModel's state on one backend.
@@ -73,10 +89,20 @@ class BoxStepper {
  public:
   virtual ~BoxStepper() = default;
   // n steps of the model's integrator, as Simulation::advance takes them.
+  // Throws StepUnstable (the state as it describes) or std::runtime_error.
   virtual void advance(long n) = 0;
   // The state (x, v, w, f, tq, and Gear's aux columns where p has them) into
-  // p, which holds the model's particles in the model's order.
-  virtual void download(ParticleStore<2>& p) const = 0;
+  // p, which holds the model's particles in the model's order; r = 0.
+  virtual void download(ParticleStore<2>& p, int r = 0) const = 0;
+  // The positions at the last neighbour-list build (the checkpoint's x_ref).
+  virtual Column<Eigen::Vector2d> reference_positions(int r = 0) const = 0;
+  // The largest overlap of a listed pair in range as a fraction of its
+  // contact distance Law::range(d_i, d_j) (engine/health.hpp's measure), and
+  // with smooth walls of a grain with a wall as a fraction of R_i + r_w
+  // (FlatBoxWalls::deepest's); +infinity where a position or velocity is not
+  // finite, -infinity where there is no contact. One value (one replica).
+  virtual std::vector<double> worst_overlap() = 0;
+  int replicas() const { return 1; }
   virtual double time() const = 0;
   virtual long step_count() const = 0;
   virtual long builds() const = 0;          // neighbour-list builds so far
@@ -85,11 +111,21 @@ class BoxStepper {
 
 // The kernels built by the host compiler, run as loops on the CPU (gpu/box_host.cpp).
 std::unique_ptr<BoxStepper> make_host_box(const BoxModel& m);
+// The same for a list of models as the GPU engine's driver passes it: one box
+// (a stepper runs no replicas of the box; std::invalid_argument otherwise).
+std::unique_ptr<BoxStepper> make_host_box(const std::vector<BoxModel>& models);
 
 #if defined(GRANULAR_HAVE_CUDA)
 // The kernels built by nvcc, run on the first visible CUDA device
 // (gpu/box_cuda.cu; gpu/drum_gpu.hpp's cuda_unavailable says why not).
 std::unique_ptr<BoxStepper> make_cuda_box(const BoxModel& m);
+std::unique_ptr<BoxStepper> make_cuda_box(const std::vector<BoxModel>& models);
 #endif
+
+// The one model of `models`, or std::invalid_argument (the box steppers hold one box).
+inline const BoxModel& only_box(const std::vector<BoxModel>& models) {
+  if (models.size() != 1) throw std::invalid_argument("GPU box: a stepper runs one box, not replicas");
+  return models.front();
+}
 
 }  // namespace granular::gpu

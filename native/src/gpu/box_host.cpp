@@ -8,4 +8,8 @@ namespace granular::gpu {
 
 std::unique_ptr<BoxStepper> make_host_box(const BoxModel& m) { return host::make_box_stepper(m); }
 
+std::unique_ptr<BoxStepper> make_host_box(const std::vector<BoxModel>& models) {
+  return make_host_box(only_box(models));
+}
+
 }  // namespace granular::gpu

@@ -15,11 +15,15 @@
 //               the pose evaluated once per step on the host); every other
 //               particle: Gear's predictor (gear_predict) or the leapfrog's
 //               kick and drift (leapfrog_kick, leapfrog_drift); the squared
-//               displacement since the last list build
-//   rebuild     if the largest displacement exceeds skin/2: particles sorted
-//               by cell, each cell's range, then every particle lists every
-//               neighbour within range + skin (a full list, in the order of
-//               the cell stencil), no pair of two wall particles
+//               displacement since the last list build, or +infinity where
+//               the step's move exceeds max_step_move or is not finite
+//               (Simulation's stability test: the stepper stops, StepUnstable)
+//   rebuild     if the largest displacement exceeds skin/2: the reference
+//               positions renewed, particles sorted by the cell of their
+//               reference position, each cell's range, then every particle
+//               lists every neighbour within range + skin of the reference
+//               positions (a full list, in the order of the cell stencil),
+//               no pair of two wall particles
 //   forces      each particle: with smooth walls, the walls' contacts
 //               (flat_box_offsets, the walls at the end of the step); then
 //               its side of each listed pair in range through the law's
@@ -148,23 +152,30 @@ struct Pose2 {
 };
 
 // A wall particle placed by the pose (ShakerMotion::place): x = anchor + dx,
-// v = the box's velocity, w = 0.
-GRANULAR_HD void place_wall(const BoxArrays& s, const Pose2& pose, unsigned i) {
+// v = the box's velocity, w = 0; its move in this step into step
+// (place_if_wall's: the new position less the old).
+GRANULAR_HD void place_wall(const BoxArrays& s, const Pose2& pose, unsigned i, double (&step)[2]) {
   const unsigned n = s.n;
   for (int a = 0; a < 2; ++a) {
+    const double old = s.x[a * n + i];
     s.x[a * n + i] = s.anchor[a * n + i] + pose.dx[a];
+    step[a] = s.x[a * n + i] - old;
     s.v[a * n + i] = pose.v[a];
   }
   s.w[i] = 0.0;
 }
 
-// The squared displacement of particle i since the list's build (a
-// non-finite one as +infinity, which the stepper reports).
-GRANULAR_HD void note_displacement(const BoxArrays& s, unsigned i) {
+// The squared displacement of particle i since the list's build, or
+// +infinity where this step's move (step) is longer than max_step_move
+// (step_lim2 = its square) or anything is not finite (Simulation's stability
+// test), which the stepper reports.
+GRANULAR_HD void note_displacement(const BoxArrays& s, unsigned i, const double (&step)[2], double step_lim2) {
   const unsigned n = s.n;
   const double dx = s.x[i] - s.x_ref[i], dy = s.x[n + i] - s.x_ref[n + i];
   const double d2 = dx * dx + dy * dy;
-  s.disp2[i] = d2 <= std::numeric_limits<double>::max() ? d2 : std::numeric_limits<double>::infinity();
+  const double s2 = step[0] * step[0] + step[1] * step[1];
+  const bool fine = d2 <= std::numeric_limits<double>::max() && s2 <= step_lim2;
+  s.disp2[i] = fine ? d2 : std::numeric_limits<double>::infinity();
 }
 
 // The leapfrog's stage 1 (Leapfrog::first_half): walls placed, every other
@@ -174,18 +185,20 @@ struct LeapfrogFirst {
   double dt;
   double g[2];
   Pose2 pose;
+  double step_lim2;  // max_step_move squared
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
+    double step[2];
     if (s.species[i] == kWallSpecies) {
-      place_wall(s, pose, i);
+      place_wall(s, pose, i, step);
     } else {
       const double h = 0.5 * dt, inv_m = s.inv_m[i], hi = h * s.inv_i[i];
       for (int a = 0; a < 2; ++a) leapfrog_kick(h, s.f[a * n + i], inv_m, g[a], s.v[a * n + i]);
       leapfrog_spin_kick(hi, s.t[i], s.w[i]);
-      for (int a = 0; a < 2; ++a) leapfrog_drift(dt, s.v[a * n + i], s.x[a * n + i]);
+      for (int a = 0; a < 2; ++a) step[a] = leapfrog_drift(dt, s.v[a * n + i], s.x[a * n + i]);
     }
-    note_displacement(s, i);
+    note_displacement(s, i, step, step_lim2);
   }
 };
 
@@ -211,19 +224,21 @@ struct GearPredict {
   BoxArrays s;
   double dt;
   Pose2 pose;
+  double step_lim2;  // max_step_move squared
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
+    double step[2];
     if (s.species[i] == kWallSpecies) {
-      place_wall(s, pose, i);
+      place_wall(s, pose, i, step);
     } else {
       for (int a = 0; a < 2; ++a) {
         const unsigned k = a * n + i;
-        gear_predict(dt, s.x[k], s.v[k], s.r[0][k], s.r[1][k], s.r[2][k], s.r[3][k]);
+        step[a] = gear_predict(dt, s.x[k], s.v[k], s.r[0][k], s.r[1][k], s.r[2][k], s.r[3][k]);
       }
       gear_predict(dt, s.q[0][i], s.w[i], s.q[1][i], s.q[2][i], s.q[3][i], s.q[4][i]);
     }
-    note_displacement(s, i);
+    note_displacement(s, i, step, step_lim2);
   }
 };
 
@@ -267,11 +282,13 @@ struct CellGrid2 {
   unsigned cells() const { return static_cast<unsigned>(n[0]) * n[1]; }
 };
 
-// Each particle's cell and its index (the values the sort carries), and the
-// positions the list is built from.
+// The positions the list is built from (renew: the current ones, else the
+// reference positions kept, as a resumed run's), each particle's cell of its
+// reference position and its index (the values the sort carries).
 struct BoxCellOf {
   BoxArrays s;
   CellGrid2 grid;
+  bool renew;
   std::uint32_t* cell;
   std::uint32_t* index;
 
@@ -279,8 +296,8 @@ struct BoxCellOf {
     const unsigned n = s.n;
     int q[2];
     for (int a = 0; a < 2; ++a) {
-      q[a] = grid.coord(s.x[a * n + i], a);
-      s.x_ref[a * n + i] = s.x[a * n + i];
+      if (renew) s.x_ref[a * n + i] = s.x[a * n + i];
+      q[a] = grid.coord(s.x_ref[a * n + i], a);
     }
     cell[i] = grid.index(q[0], q[1]);
     index[i] = i;
@@ -307,9 +324,9 @@ struct BoxClear {
   GRANULAR_HD void operator()(unsigned c) const { start[c] = end[c] = 0; }
 };
 
-// Particle i's row of the full list: every j != i within range + skin, from
-// the 9 cells around i's (fewer at an edge), but no pair of two particles of
-// the excluded species. Rows hold at most cap entries (column-major,
+// Particle i's row of the full list: every j != i within range + skin of the
+// reference positions, from the 9 cells around i's (fewer at an edge), but
+// no pair of two particles of the excluded species. Rows hold at most cap entries (column-major,
 // nbr[m * n + i]); count[i] is the row's true length, and if any exceeds
 // cap the caller enlarges the list and builds again.
 template <class Law>
@@ -327,7 +344,7 @@ struct BoxListNeighbors {
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
-    const double xi[2] = {s.x[i], s.x[n + i]};
+    const double xi[2] = {s.x_ref[i], s.x_ref[n + i]};
     const double di = s.d[i];
     const bool excluded = s.species[i] == exclude;
     int q[2];
@@ -339,7 +356,7 @@ struct BoxListNeighbors {
         for (std::uint32_t k = start[c], ke = end[c]; k < ke; ++k) {
           const std::uint32_t j = sorted[k];
           if (j == i || (excluded && s.species[j] == exclude)) continue;
-          const double dx = xi[0] - s.x[j], dy = xi[1] - s.x[n + j];
+          const double dx = xi[0] - s.x_ref[j], dy = xi[1] - s.x_ref[n + j];
           const double r2 = dx * dx + dy * dy;
           const double rc = Law::range(di, s.d[j]) + skin;
           if (r2 < rc * rc) {
@@ -378,6 +395,50 @@ struct BoxForces {
   }
 };
 
+// Particle i's worst overlap, as a fraction of the contact distance: over its
+// listed pairs in range, (range - r) / range with r the centres' distance
+// (engine/health.hpp's measure), and with smooth walls over its contacts
+// with the walls, (R_i + r_w - r) / (R_i + r_w) (FlatBoxWalls::deepest's);
+// -infinity without one, +infinity if its position or velocity is not finite.
+template <class Law, BoxWalls Walls>
+struct BoxWorstOverlap {
+  BoxArrays s;
+  FlatWalls2 walls;
+  const std::uint32_t* nbr;
+  const std::uint32_t* count;
+  double* out;
+
+  GRANULAR_HD void operator()(unsigned i) const {
+    const unsigned n = s.n;
+    // v - v is 0 for a finite v, NaN for an infinite or NaN one.
+    double zero = (s.w[i] - s.w[i]);
+    for (int a = 0; a < 2; ++a) zero += (s.x[a * n + i] - s.x[a * n + i]) + (s.v[a * n + i] - s.v[a * n + i]);
+    if (!(zero == 0.0)) {
+      out[i] = std::numeric_limits<double>::infinity();
+      return;
+    }
+    double worst = -std::numeric_limits<double>::infinity();
+    for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
+      const unsigned j = nbr[m * n + i];
+      const double dx = s.x[i] - s.x[j], dy = s.x[n + i] - s.x[n + j];
+      const double r = std::sqrt(dx * dx + dy * dy);
+      const double rc = Law::range(s.d[i], s.d[j]);
+      const double ov = (rc - r) / rc;
+      if (r < rc && ov > worst) worst = ov;
+    }
+    if constexpr (Walls == BoxWalls::smooth) {
+      if (s.species[i] != kWallSpecies) {
+        const double rc = 0.5 * s.d[i] + 0.5 * walls.d_wall;
+        flat_box_offsets(s.x[i], s.x[n + i], walls.floor_c, walls.top_c, walls.xc, [&](double dx, double dy) {
+          const double ov = (rc - std::sqrt(dx * dx + dy * dy)) / rc;
+          if (ov > 0.0 && ov > worst) worst = ov;
+        });
+      }
+    }
+    out[i] = worst;
+  }
+};
+
 // The stepper: the state in DeviceArrays and the step above, for one
 // integrator and one kind of walls.
 template <class Law, BoxIntegrator Integrator, BoxWalls Walls>
@@ -400,6 +461,7 @@ class BoxKernels final : public BoxStepper {
     c0_ = m.gear_c0;
     skin_ = m.skin;
     exclude_ = m.exclude_species;
+    step_lim2_ = m.max_step_move * m.max_step_move;
     for (int a = 0; a < 2; ++a) g_[a] = m.gravity[a];
     upload(m.p);
     // Cells sized for the widest particle.
@@ -426,9 +488,17 @@ class BoxKernels final : public BoxStepper {
     count_.resize(n_);
     disp2_.resize(n_);
     x_ref_.resize(2 * static_cast<std::size_t>(n_));
+    // A resumed run's list is built from the positions the list in use was
+    // built from; a new one's from the current positions.
+    const bool resumed = !m.x_ref.empty();
+    if (resumed) {
+      if (m.x_ref.size() != m.p.size())
+        throw std::invalid_argument("GPU box: the list's reference positions are not one per particle");
+      upload_vectors(m.x_ref, x_ref_);
+    }
     // The forces of the model's state are those the CPU engine computed
     // (Simulation::init, or the last step): the first stage reads them.
-    build();
+    build(!resumed);
     synchronize();
   }
 
@@ -440,15 +510,15 @@ class BoxKernels final : public BoxStepper {
       const Pose2 pose{{b.dx[0], b.dx[1]}, {b.v[0], b.v[1]}};
       const BoxArrays s = arrays();
       if constexpr (kGear)
-        for_each(n_, GearPredict{s, dt_, pose});
+        for_each(n_, GearPredict{s, dt_, pose, step_lim2_});
       else
-        for_each(n_, LeapfrogFirst{s, dt_, {g_[0], g_[1]}, pose});
+        for_each(n_, LeapfrogFirst{s, dt_, {g_[0], g_[1]}, pose, step_lim2_});
       const double moved2 = max_of(disp2_.data(), n_, 0.0, max_d_, scratch_);
-      if (!(moved2 <= std::numeric_limits<double>::max()))
-        throw std::runtime_error("GPU box: a particle's position is not finite at step " +
-                                 std::to_string(steps_ + 1) + " (t = " + std::to_string(t_next) +
-                                 "); reduce integrator.dt or check the contact parameters");
-      if (moved2 > lim2) build();
+      if (!(moved2 <= std::numeric_limits<double>::max())) {
+        synchronize();
+        throw StepUnstable(0);
+      }
+      if (moved2 > lim2) build(true);
       for_each(n_, BoxForces<Law, Walls>{law_, walls_at(t_next), s, nbr_.data(), count_.data()});
       if constexpr (kGear)
         for_each(n_, GearCorrect{s, dt_, c0_, {g_[0], g_[1]}});
@@ -460,7 +530,8 @@ class BoxKernels final : public BoxStepper {
     synchronize();
   }
 
-  void download(ParticleStore<2>& p) const override {
+  void download(ParticleStore<2>& p, int r) const override {
+    if (r != 0) throw std::invalid_argument("GPU box: a stepper holds one box (replica 0)");
     if (p.size() != n_) throw std::invalid_argument("GPU box: download into a store of another size");
     download_vectors(x_, p.x);
     download_vectors(v_, p.v);
@@ -471,6 +542,19 @@ class BoxKernels final : public BoxStepper {
       for (int k = 0; k < 4; ++k) download_vectors(r_[k], p.aux_v[k]);
       for (int k = 0; k < 5; ++k) download_angles(q_[k], p.aux_a[k]);
     }
+  }
+
+  Column<Eigen::Vector2d> reference_positions(int r) const override {
+    if (r != 0) throw std::invalid_argument("GPU box: a stepper holds one box (replica 0)");
+    Column<Eigen::Vector2d> out(n_);
+    download_vectors(x_ref_, out);
+    return out;
+  }
+
+  std::vector<double> worst_overlap() override {
+    health_.resize(n_);
+    for_each(n_, BoxWorstOverlap<Law, Walls>{arrays(), walls_at(time_), nbr_.data(), count_.data(), health_.data()});
+    return {max_of(health_.data(), n_, -std::numeric_limits<double>::infinity(), max_d_, scratch_)};
   }
 
   double time() const override { return time_; }
@@ -549,11 +633,11 @@ class BoxKernels final : public BoxStepper {
     }
   }
 
-  // The cell sort and the full list, from the current positions; the list
-  // grows until every row fits.
-  void build() {
+  // The cell sort and the full list, from the current positions (renew) or
+  // the reference positions kept; the list grows until every row fits.
+  void build(bool renew) {
     const BoxArrays s = arrays();
-    for_each(n_, BoxCellOf{s, grid_, cell_.data(), index_.data()});
+    for_each(n_, BoxCellOf{s, grid_, renew, cell_.data(), index_.data()});
     sort_pairs(cell_.data(), sorted_cell_.data(), index_.data(), sorted_.data(), n_, end_bit_, scratch_);
     for_each(grid_.cells(), BoxClear{cell_start_.data(), cell_end_.data()});
     for_each(n_, BoxCellRanges{sorted_cell_.data(), cell_start_.data(), cell_end_.data(), n_});
@@ -575,13 +659,13 @@ class BoxKernels final : public BoxStepper {
   double time_;
   long steps_;
   long builds_ = 0;
-  double dt_ = 0.0, c0_ = 0.0, skin_ = 0.0;
+  double dt_ = 0.0, c0_ = 0.0, skin_ = 0.0, step_lim2_ = 0.0;
   double g_[2] = {0.0, 0.0};
   int exclude_ = -1;
   CellGrid2 grid_{};
   int end_bit_ = 1;
   unsigned cap_ = 16;  // list columns per particle
-  DeviceArray<double> x_, v_, w_, f_, t_, d_, inv_m_, inv_i_, anchor_, x_ref_, disp2_, max_d_;
+  DeviceArray<double> x_, v_, w_, f_, t_, d_, inv_m_, inv_i_, anchor_, x_ref_, disp2_, max_d_, health_;
   DeviceArray<double> r_[4], q_[5];
   DeviceArray<std::int32_t> species_;
   DeviceArray<std::uint32_t> cell_, index_, sorted_cell_, sorted_, cell_start_, cell_end_, nbr_, count_, max_count_;

@@ -46,6 +46,7 @@ BoxModel box_model(const BoxSim& sim) {
         }
         m.time = s.time;
         m.step_count = s.step_count;
+        m.max_step_move = s.max_step_move();
         m.p = s.p;
         return m;
       },

@@ -27,6 +27,7 @@
 #include "contact/laws.hpp"
 #include "core/particles.hpp"
 #include "core/type_list.hpp"
+#include "gpu/step_unstable.hpp"
 
 namespace granular::gpu {
 
@@ -63,18 +64,6 @@ struct DrumModel {
   // from (the list is rebuilt from them, row for row the list in use), and
   // p.f, p.tq are the last step's forces, used as they are.
   Column<Eigen::Vector3d> x_ref;
-};
-
-// A step moved a particle of replica `replica` further than max_step_move,
-// or made a position or velocity not finite. The stepper stops after that
-// step's first stage (its drift), before the step is counted: the state it
-// holds is the one the CPU engine's check (Simulation::report_unstable_step)
-// names the culprit from.
-class StepUnstable : public std::runtime_error {
- public:
-  explicit StepUnstable(int replica)
-      : std::runtime_error("GPU drum: replica " + std::to_string(replica) + " is unstable"), replica(replica) {}
-  int replica;
 };
 
 // Advances the state of one or several DrumModels (replicas) on one backend.
