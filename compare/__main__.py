@@ -147,6 +147,10 @@ def main(argv=None):
     va.add_argument("--false-alarms", type=int, default=0, metavar="R",
                     help="also run the native rows of the gating pairs on 2R groups of fresh seeds and count how "
                          "often a group is called different from another; writes DIR/report_false_alarmsR.{json,html}")
+    va.add_argument("--device", choices=["auto", "cpu", "gpu", "gpu-host"], default="auto",
+                    help="where the native drum runs go: the CPU engine, one run per lane, or the GPU engine, the "
+                         "seeds of a row as replicas of one process (docs/gpu.md); auto: gpu where `granular "
+                         "devices` finds a CUDA device, else cpu")
     va.add_argument("--markdown", default=None, metavar="REPORT",
                     help="print DIR/REPORT.json (report, report_mutants, ...) as Markdown tables and exit")
     va.add_argument("--design", action="store_true",
@@ -203,7 +207,8 @@ def main(argv=None):
         mutants = list(MUTANTS) if args.mutants == "all" else (args.mutants.split(",") if args.mutants else [])
         rep = validate(args.suite, args.output, lanes=args.lanes,
                        rows=args.rows.split(",") if args.rows else None, cases=cases, mutants=mutants,
-                       false_alarms=args.false_alarms, log=lambda m: print(m, file=sys.stderr, flush=True))
+                       false_alarms=args.false_alarms, log=lambda m: print(m, file=sys.stderr, flush=True),
+                       device=args.device)
         return 0 if rep["verdict"] == "pass" else 1
 
     if args.command == "speed-accuracy":

@@ -478,8 +478,18 @@ def run_job(job, log=print):
         log(f"  FAILED {job.label}: {meta['error']}")
         return meta | {"cached": False}
     os.replace(tmp, job.path)
+    drop_run_companions(tmp)
     meta_path.write_text(json.dumps(meta, indent=1))
     return meta | {"cached": False}
+
+
+def drop_run_companions(out):
+    """Removes what the native engine writes beside a run's output OUT.h5: its
+    final checkpoint (OUT.h5.ckpt, for lengthening a run; the suite never
+    does) and its ParaView index (OUT.xdmf, which names the file by the
+    temporary name it had while it ran)."""
+    Path(str(out) + ".ckpt").unlink(missing_ok=True)
+    out.with_suffix(".xdmf").unlink(missing_ok=True)
 
 
 def yield_like_this_process(pid):
@@ -543,23 +553,121 @@ def run_timed(cmd, timeout):
     return rc, err, cpu
 
 
-def run_all(jobs, lanes=2, log=print):
+# ---------------------------------------------------------------- the native rows on the GPU engine
+
+# The scene kinds whose native runs go to the GPU engine as replicas: the
+# drum's. The GPU engine steps one shaken box per process (docs/gpu.md), and a
+# box of about a thousand grains runs faster on one core than alone on a GPU.
+REPLICA_KINDS = ("drum",)
+# The most seeds in one GPU process: 64 copies of #A need about 0.2 GiB.
+MAX_REPLICAS = 64
+
+
+def native_device(choice="auto"):
+    """The device for the native rows: `choice`, or for "auto" the GPU engine
+    where `granular devices` finds a CUDA device, else the CPU."""
+    if choice != "auto":
+        return choice
+    try:
+        r = subprocess.run([str(granular_bin()), "devices", "--json"], capture_output=True, text=True, timeout=60)
+        return "gpu" if r.returncode == 0 and json.loads(r.stdout)["gpu"]["available"] else "cpu"
+    except (OSError, ValueError, KeyError, subprocess.TimeoutExpired):
+        return "cpu"
+
+
+def replica_batches(jobs, device):
+    """The native runs still to be made that can share a GPU process: runs of
+    one case, row and variant with the same overrides but the seed, and
+    consecutive seeds (replica k runs seed + k); at most MAX_REPLICAS a batch.
+    Runs already on disk, or cached under another name (same_run_elsewhere),
+    are left to run_job."""
+    if device == "cpu":
+        return []
+    groups = {}
+    for job in jobs:
+        if job.engine != "native" or job.case.kind not in REPLICA_KINDS or job.path.exists():
+            continue
+        if same_run_elsewhere(job, resolved_scene(job)) is not None:
+            continue
+        rest = tuple(x for x in job.sets if not x.startswith("particles.seed="))
+        groups.setdefault((job.case.name, job.row, job.variant, rest), []).append(job)
+    batches = []
+    for group in groups.values():
+        group.sort(key=lambda j: j.seed)
+        batch = [group[0]]
+        for job in group[1:]:
+            if job.seed == batch[-1].seed + 1 and len(batch) < MAX_REPLICAS:
+                batch.append(job)
+            else:
+                batches.append(batch)
+                batch = [job]
+        batches.append(batch)
+    return batches
+
+
+def run_batch(batch, device, log=print):
+    """Runs a replica batch in one GPU engine process (granular run --device
+    DEVICE --replicas K from the first seed) and files replica k as the k-th
+    job's run; returns their metadata dicts."""
+    first, k = batch[0], len(batch)
+    first.path.parent.mkdir(parents=True, exist_ok=True)
+    partial = first.path.with_name(f"{first.path.stem}.partial_x{k}.h5")
+    outs = [partial.with_name(f"{partial.stem}_r{r:02d}.h5") for r in range(k)]
+    for out in outs:
+        out.unlink(missing_ok=True)
+    cmd = [*first.command(partial), "--device", device, "--replicas", str(k)]
+    resolved = [resolved_scene(job) for job in batch]
+    t0 = time.monotonic()
+    rc, err, cpu = run_timed(cmd, first.case.timeout * k)
+    wall = time.monotonic() - t0
+    metas = []
+    for r, (job, out) in enumerate(zip(batch, outs)):
+        meta = {"label": job.label, "command": cmd, "device": device, "replicas": k, "replica": r,
+                "wall_seconds": wall / k, "cpu_seconds": cpu / k, "returncode": rc, "resolved_scene": resolved[r]}
+        if rc != 0 or not out.exists():
+            drop_run_companions(out)
+            lines = [ln for ln in err.strip().splitlines() if ln.strip()]
+            meta["returncode"] = rc or 1
+            meta["error"] = " | ".join(lines[-3:]) if lines else f"no replica file {out.name}"
+            if r == 0:
+                log(f"  FAILED {job.label} and its {k - 1} fellow replicas: {meta['error']}")
+            metas.append(meta | {"cached": False})
+            continue
+        os.replace(out, job.path)
+        drop_run_companions(out)
+        job.path.with_suffix(".json").write_text(json.dumps(meta, indent=1))
+        metas.append(meta | {"cached": False})
+    return metas
+
+
+def run_all(jobs, lanes=2, log=print, device="cpu"):
+    """Runs (or finds in the cache) every job; returns their metadata dicts in
+    the jobs' order. With device gpu or gpu-host, the native drum runs go to
+    the GPU engine as replica batches (replica_batches); the rest as usual."""
     done = [0]
     t0 = time.monotonic()
+    batches = replica_batches(jobs, device)
+    index = {id(job): i for i, job in enumerate(jobs)}
+    batched = {id(job) for b in batches for job in b}
+    units = batches + [[job] for job in jobs if id(job) not in batched]
 
-    def one(job):
-        m = run_job(job, log)
-        done[0] += 1
-        how = "cached" if m.get("cached") else f"{m['wall_seconds']:.0f} s"
-        log(f"[{done[0]}/{len(jobs)}] {job.label}: {how}  ({time.monotonic() - t0:.0f} s elapsed)")
-        return m
+    def one(unit):
+        ms = run_batch(unit, device, log) if id(unit[0]) in batched else [run_job(unit[0], log)]
+        for job, m in zip(unit, ms):
+            done[0] += 1
+            how = "cached" if m.get("cached") else f"{m['wall_seconds']:.0f} s"
+            if m.get("replicas"):
+                how += f" (replica {m['replica']} of {m['replicas']} on {m['device']})"
+            log(f"[{done[0]}/{len(jobs)}] {job.label}: {how}  ({time.monotonic() - t0:.0f} s elapsed)")
+        return ms
 
     # The slow engines first, so the lanes finish together.
-    order = sorted(range(len(jobs)), key=lambda i: {"yade": 0, "lammps": 1}.get(jobs[i].engine, 2))
+    units.sort(key=lambda u: {"yade": 0, "lammps": 1}.get(u[0].engine, 2))
     metas = [None] * len(jobs)
     with ThreadPoolExecutor(max_workers=lanes) as ex:
-        for i, m in zip(order, ex.map(lambda i: one(jobs[i]), order)):
-            metas[i] = m
+        for unit, ms in zip(units, ex.map(one, units)):
+            for job, m in zip(unit, ms):
+                metas[index[id(job)]] = m
     return metas
 
 # ---------------------------------------------------------------- observables of one run
@@ -942,7 +1050,8 @@ def pass_probability(design):
     return float(np.prod([d["power"] for d in design if d["gating"]]))
 
 
-def validate(suite, outdir, lanes=2, rows=None, cases=None, mutants=(), false_alarms=0, log=print):
+def validate(suite, outdir, lanes=2, rows=None, cases=None, mutants=(), false_alarms=0, log=print,
+             device="auto"):
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     unknown = sorted(set(cases or []) - {c.name for c in SUITES[suite]})
@@ -957,8 +1066,10 @@ def validate(suite, outdir, lanes=2, rows=None, cases=None, mutants=(), false_al
         jobs += mutant_jobs(suite, outdir, mutants, cases)
     if false_alarms:
         jobs += false_alarm_jobs(suite, outdir, false_alarms, cases)
-    log(f"validate --suite {suite}: {len(jobs)} runs in {outdir / 'runs'} ({lanes} lanes)")
-    metas = run_all(jobs, lanes, log)
+    device = native_device(device)
+    log(f"validate --suite {suite}: {len(jobs)} runs in {outdir / 'runs'} ({lanes} lanes; "
+        f"native drum runs on {device})")
+    metas = run_all(jobs, lanes, log, device)
     report = analyse(suite, jobs, metas, mutants, false_alarms)
     report["design"] = design_table(suite, cases)
     report["pass_probability"] = pass_probability(report["design"])

@@ -6,6 +6,7 @@
 //   granular info SCENE [--set key=value]... [--json]
 //   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S] [--repeat K]
 //                  [--ceiling N] [--json] [--device cpu|gpu|gpu-host] [--replicas K]
+//   granular devices [--json]
 // SCENE is a drum (Rapaport 2002), shaken-box (Poeschel and Herrmann 1995) or
 // particles (explicit spheres and plane walls, docs/particles_scene.md) scene
 // file; its scene.kind picks the model. Exit status (docs/errors.md):
@@ -311,6 +312,33 @@ void check_device(const std::string& device, int replicas, const Loaded& l) {
   throw UsageError("--device gpu: this granular was built without CUDA (docs/gpu.md); run on the CPU with "
                    "--device cpu");
 #endif
+}
+
+// granular devices: where --device can run here. cpu and gpu-host always
+// (the cores); gpu where this build has CUDA and a CUDA device is visible,
+// else the reason it cannot. For scripts that choose a device
+// (compare validate --device auto): --json.
+int print_devices(bool as_json) {
+  nlohmann::json gpu{{"built", false}, {"available", false}, {"why_not", "this granular was built without CUDA"}};
+#if defined(GRANULAR_HAVE_CUDA)
+  const std::string none = gpu::cuda_unavailable();
+  gpu = {{"built", true}, {"available", none.empty()}, {"why_not", none}};
+  if (none.empty()) gpu["free_bytes"] = gpu::cuda_free_bytes();
+#endif
+  const nlohmann::json j{{"cpu", {{"available", true}, {"cores", omp_get_num_procs()}}},
+                         {"gpu-host", {{"available", true}, {"cores", omp_get_num_procs()}}},
+                         {"gpu", gpu}};
+  if (as_json) {
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::printf("cpu       available, %d cores\ngpu-host  available, %d cores\n", omp_get_num_procs(),
+              omp_get_num_procs());
+  if (gpu["available"].get<bool>())
+    std::printf("gpu       available, %.2f GiB free\n", gpu["free_bytes"].get<double>() / (1 << 30));
+  else
+    std::printf("gpu       not available: %s\n", gpu["why_not"].get<std::string>().c_str());
+  return 0;
 }
 
 // The stepper of the GPU engine on a device (gpu: CUDA; gpu-host: the host
@@ -1023,6 +1051,10 @@ int main(int argc, char** argv) {
   bench->add_option("--replicas", bench_replicas, "GPU engine: K seeds of the scene stepped side by side")
       ->check(CLI::PositiveNumber);
 
+  bool devices_json = false;
+  auto* devices = app.add_subcommand("devices", "where --device can run: cpu, gpu-host, and gpu if a CUDA device is visible");
+  devices->add_flag("--json", devices_json, "print JSON");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -1030,6 +1062,7 @@ int main(int argc, char** argv) {
   }
 
   try {
+    if (*devices) return print_devices(devices_json);
     if (*info) {
       const Loaded l = load(scene_path, sets);
       const auto j = info_json(l);
