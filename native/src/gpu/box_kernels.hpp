@@ -53,6 +53,8 @@
 #include "contact/lane.hpp"
 #include "gpu/box_gpu.hpp"
 #include "gpu/exec.hpp"
+#include "gpu/kernel_stepper.hpp"
+#include "gpu/neighbor_kernels.hpp"
 #include "integrate/gear.hpp"
 #include "integrate/leapfrog.hpp"
 #include "integrate/motion.hpp"
@@ -178,6 +180,15 @@ GRANULAR_HD void note_displacement(const BoxArrays& s, unsigned i, const double 
   s.disp2[i] = fine ? d2 : std::numeric_limits<double>::infinity();
 }
 
+// Half a step's kick of particle i from its forces (Leapfrog::kick:
+// leapfrog_kick and leapfrog_spin_kick).
+GRANULAR_HD void leapfrog_half_kick(const BoxArrays& s, double dt, const double (&g)[2], unsigned i) {
+  const unsigned n = s.n;
+  const double h = 0.5 * dt, inv_m = s.inv_m[i], hi = h * s.inv_i[i];
+  for (int a = 0; a < 2; ++a) leapfrog_kick(h, s.f[a * n + i], inv_m, g[a], s.v[a * n + i]);
+  leapfrog_spin_kick(hi, s.t[i], s.w[i]);
+}
+
 // The leapfrog's stage 1 (Leapfrog::first_half): walls placed, every other
 // particle kicked and drifted.
 struct LeapfrogFirst {
@@ -193,9 +204,7 @@ struct LeapfrogFirst {
     if (s.species[i] == kWallSpecies) {
       place_wall(s, pose, i, step);
     } else {
-      const double h = 0.5 * dt, inv_m = s.inv_m[i], hi = h * s.inv_i[i];
-      for (int a = 0; a < 2; ++a) leapfrog_kick(h, s.f[a * n + i], inv_m, g[a], s.v[a * n + i]);
-      leapfrog_spin_kick(hi, s.t[i], s.w[i]);
+      leapfrog_half_kick(s, dt, g, i);
       for (int a = 0; a < 2; ++a) step[a] = leapfrog_drift(dt, s.v[a * n + i], s.x[a * n + i]);
     }
     note_displacement(s, i, step, step_lim2);
@@ -210,11 +219,7 @@ struct LeapfrogSecond {
   double g[2];
 
   GRANULAR_HD void operator()(unsigned i) const {
-    if (s.species[i] == kWallSpecies) return;
-    const unsigned n = s.n;
-    const double h = 0.5 * dt, inv_m = s.inv_m[i], hi = h * s.inv_i[i];
-    for (int a = 0; a < 2; ++a) leapfrog_kick(h, s.f[a * n + i], inv_m, g[a], s.v[a * n + i]);
-    leapfrog_spin_kick(hi, s.t[i], s.w[i]);
+    if (s.species[i] != kWallSpecies) leapfrog_half_kick(s, dt, g, i);
   }
 };
 
@@ -262,113 +267,6 @@ struct GearCorrect {
   }
 };
 
-// The cells of the (open) box: at least range + skin wide, so every listed
-// pair lies in the same or an adjacent cell.
-struct CellGrid2 {
-  int n[2];
-  double lo[2], width[2];
-
-  // Particle coordinate x's cell along axis a; a particle outside the
-  // domain belongs to the edge cell.
-  GRANULAR_HD int coord(double x, int a) const {
-    double q = std::floor((x - lo[a]) / width[a]);
-    q = q >= 0.0 ? q : 0.0;  // and NaN to 0
-    q = q <= n[a] - 1 ? q : n[a] - 1;
-    return static_cast<int>(q);
-  }
-  GRANULAR_HD unsigned index(int q0, int q1) const {
-    return static_cast<unsigned>(q1) * n[0] + static_cast<unsigned>(q0);
-  }
-  unsigned cells() const { return static_cast<unsigned>(n[0]) * n[1]; }
-};
-
-// The positions the list is built from (renew: the current ones, else the
-// reference positions kept, as a resumed run's), each particle's cell of its
-// reference position and its index (the values the sort carries).
-struct BoxCellOf {
-  BoxArrays s;
-  CellGrid2 grid;
-  bool renew;
-  std::uint32_t* cell;
-  std::uint32_t* index;
-
-  GRANULAR_HD void operator()(unsigned i) const {
-    const unsigned n = s.n;
-    int q[2];
-    for (int a = 0; a < 2; ++a) {
-      if (renew) s.x_ref[a * n + i] = s.x[a * n + i];
-      q[a] = grid.coord(s.x_ref[a * n + i], a);
-    }
-    cell[i] = grid.index(q[0], q[1]);
-    index[i] = i;
-  }
-};
-
-// Every cell's range [start, end) in the sorted order (cells start empty).
-struct BoxCellRanges {
-  const std::uint32_t* sorted_cell;
-  std::uint32_t* start;
-  std::uint32_t* end;
-  unsigned n;
-
-  GRANULAR_HD void operator()(unsigned k) const {
-    const std::uint32_t c = sorted_cell[k];
-    if (k == 0 || sorted_cell[k - 1] != c) start[c] = k;
-    if (k + 1 == n || sorted_cell[k + 1] != c) end[c] = k + 1;
-  }
-};
-
-struct BoxClear {
-  std::uint32_t* start;
-  std::uint32_t* end;
-  GRANULAR_HD void operator()(unsigned c) const { start[c] = end[c] = 0; }
-};
-
-// Particle i's row of the full list: every j != i within range + skin of the
-// reference positions, from the 9 cells around i's (fewer at an edge), but
-// no pair of two particles of the excluded species. Rows hold at most cap entries (column-major,
-// nbr[m * n + i]); count[i] is the row's true length, and if any exceeds
-// cap the caller enlarges the list and builds again.
-template <class Law>
-struct BoxListNeighbors {
-  BoxArrays s;
-  CellGrid2 grid;
-  double skin;
-  int exclude;
-  const std::uint32_t* start;
-  const std::uint32_t* end;
-  const std::uint32_t* sorted;
-  std::uint32_t* nbr;
-  std::uint32_t* count;
-  unsigned cap;
-
-  GRANULAR_HD void operator()(unsigned i) const {
-    const unsigned n = s.n;
-    const double xi[2] = {s.x_ref[i], s.x_ref[n + i]};
-    const double di = s.d[i];
-    const bool excluded = s.species[i] == exclude;
-    int q[2];
-    for (int a = 0; a < 2; ++a) q[a] = grid.coord(xi[a], a);
-    unsigned m = 0;
-    for (int c0 = q[0] > 0 ? q[0] - 1 : 0, e0 = q[0] < grid.n[0] - 1 ? q[0] + 1 : q[0]; c0 <= e0; ++c0)
-      for (int c1 = q[1] > 0 ? q[1] - 1 : 0, e1 = q[1] < grid.n[1] - 1 ? q[1] + 1 : q[1]; c1 <= e1; ++c1) {
-        const std::uint32_t c = grid.index(c0, c1);
-        for (std::uint32_t k = start[c], ke = end[c]; k < ke; ++k) {
-          const std::uint32_t j = sorted[k];
-          if (j == i || (excluded && s.species[j] == exclude)) continue;
-          const double dx = xi[0] - s.x_ref[j], dy = xi[1] - s.x_ref[n + j];
-          const double r2 = dx * dx + dy * dy;
-          const double rc = Law::range(di, s.d[j]) + skin;
-          if (r2 < rc * rc) {
-            if (m < cap) nbr[m * n + i] = j;
-            ++m;
-          }
-        }
-      }
-    count[i] = m;
-  }
-};
-
 // Particle i's force and torque: the smooth walls' contacts (smooth walls),
 // then its side of every listed pair in range, in list order (walls of
 // particles are particles in the list).
@@ -410,22 +308,11 @@ struct BoxWorstOverlap {
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
-    // v - v is 0 for a finite v, NaN for an infinite or NaN one.
-    double zero = (s.w[i] - s.w[i]);
-    for (int a = 0; a < 2; ++a) zero += (s.x[a * n + i] - s.x[a * n + i]) + (s.v[a * n + i] - s.v[a * n + i]);
-    if (!(zero == 0.0)) {
+    if (!finite_motion<2, 1>(s.x, s.v, s.w, n, i)) {
       out[i] = std::numeric_limits<double>::infinity();
       return;
     }
-    double worst = -std::numeric_limits<double>::infinity();
-    for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
-      const unsigned j = nbr[m * n + i];
-      const double dx = s.x[i] - s.x[j], dy = s.x[n + i] - s.x[n + j];
-      const double r = std::sqrt(dx * dx + dy * dy);
-      const double rc = Law::range(s.d[i], s.d[j]);
-      const double ov = (rc - r) / rc;
-      if (r < rc && ov > worst) worst = ov;
-    }
+    double worst = worst_listed_overlap<Law, 2>(s.x, s.d, n, OpenDomain<2>{}, nbr, count, i);
     if constexpr (Walls == BoxWalls::smooth) {
       if (s.species[i] != kWallSpecies) {
         const double rc = 0.5 * s.d[i] + 0.5 * walls.d_wall;
@@ -439,71 +326,31 @@ struct BoxWorstOverlap {
   }
 };
 
-// The stepper: the state in DeviceArrays and the step above, for one
-// integrator and one kind of walls.
+// The stepper: the state of one box (gpu/kernel_stepper.hpp) and the step
+// above, for one integrator and one kind of walls.
 template <class Law, BoxIntegrator Integrator, BoxWalls Walls>
-class BoxKernels final : public BoxStepper {
+class BoxKernels final : public KernelStepper<2> {
   static constexpr bool kGear = Integrator == BoxIntegrator::gear;
 
  public:
   BoxKernels(const Law& law, const BoxModel& m)
-      : law_(law),
-        shaker_(m.shaker),
-        flat_(m.flat),
-        n_(static_cast<unsigned>(m.p.size())),
-        time_(m.time),
-        steps_(m.step_count) {
-    if (m.p.size() >= std::numeric_limits<std::uint32_t>::max())
-      throw std::invalid_argument("GPU box: too many particles for 32-bit indices");
+      : KernelStepper<2>("GPU box", std::vector<const BoxModel*>{&m}), law_(law), shaker_(m.shaker), flat_(m.flat) {
     if (kGear && (m.p.aux_v.size() != 4 || m.p.aux_a.size() != 5))
       throw std::invalid_argument("GPU box: Gear's scaled derivatives are missing from the state (Gear5::start)");
-    dt_ = m.dt;
     c0_ = m.gear_c0;
-    skin_ = m.skin;
     exclude_ = m.exclude_species;
-    step_lim2_ = m.max_step_move * m.max_step_move;
-    for (int a = 0; a < 2; ++a) g_[a] = m.gravity[a];
     upload(m.p);
     // Cells sized for the widest particle.
-    double d_max = 0.0;
-    for (double d : m.p.d) d_max = std::max(d_max, d);
-    const double min_cell = Law::range(d_max, d_max) + skin_;
-    for (int a = 0; a < 2; ++a) {
-      const double len = m.hi[a] - m.lo[a];
-      const int c = std::max(1, static_cast<int>(len / min_cell));
-      grid_.n[a] = c;
-      grid_.lo[a] = m.lo[a];
-      grid_.width[a] = len / c;
-    }
-    if (grid_.cells() >= std::numeric_limits<std::uint32_t>::max() / 2)
-      throw std::invalid_argument("GPU box: too many cells for 32-bit keys");
-    end_bit_ = 1;
-    while ((std::uint64_t{1} << end_bit_) < grid_.cells()) ++end_bit_;
-    cell_start_.resize(grid_.cells());
-    cell_end_.resize(grid_.cells());
-    cell_.resize(n_);
-    index_.resize(n_);
-    sorted_cell_.resize(n_);
-    sorted_.resize(n_);
-    count_.resize(n_);
-    disp2_.resize(n_);
-    x_ref_.resize(2 * static_cast<std::size_t>(n_));
-    // A resumed run's list is built from the positions the list in use was
-    // built from; a new one's from the current positions.
-    const bool resumed = !m.x_ref.empty();
-    if (resumed) {
-      if (m.x_ref.size() != m.p.size())
-        throw std::invalid_argument("GPU box: the list's reference positions are not one per particle");
-      upload_vectors(m.x_ref, x_ref_);
-    }
+    reserve_list<Law>(m.lo, m.hi, {}, 16);
     // The forces of the model's state are those the CPU engine computed
-    // (Simulation::init, or the last step): the first stage reads them.
-    build(!resumed);
+    // (Simulation::init, or the last step): the first stage reads them. A
+    // resumed run's list is built from the positions the list in use was
+    // built from; a new one's from the current positions.
+    build<Law>(OpenDomain<2>{}, pairs());
     synchronize();
   }
 
   void advance(long steps) override {
-    const double lim2 = 0.25 * skin_ * skin_;  // (skin/2)^2
     for (long k = 0; k < steps; ++k) {
       const double t_next = time_ + dt_;
       const auto b = pose_at(shaker_, t_next);  // once per step, as the CPU integrators
@@ -513,13 +360,8 @@ class BoxKernels final : public BoxStepper {
         for_each(n_, GearPredict{s, dt_, pose, step_lim2_});
       else
         for_each(n_, LeapfrogFirst{s, dt_, {g_[0], g_[1]}, pose, step_lim2_});
-      const double moved2 = max_of(disp2_.data(), n_, 0.0, max_d_, scratch_);
-      if (!(moved2 <= std::numeric_limits<double>::max())) {
-        synchronize();
-        throw StepUnstable(0);
-      }
-      if (moved2 > lim2) build(true);
-      for_each(n_, BoxForces<Law, Walls>{law_, walls_at(t_next), s, nbr_.data(), count_.data()});
+      if (must_rebuild()) build<Law>(OpenDomain<2>{}, pairs());
+      for_each(n_, BoxForces<Law, Walls>{law_, walls_at(t_next), s, nbr(), count()});
       if constexpr (kGear)
         for_each(n_, GearCorrect{s, dt_, c0_, {g_[0], g_[1]}});
       else
@@ -531,36 +373,17 @@ class BoxKernels final : public BoxStepper {
   }
 
   void download(ParticleStore<2>& p, int r) const override {
-    if (r != 0) throw std::invalid_argument("GPU box: a stepper holds one box (replica 0)");
-    if (p.size() != n_) throw std::invalid_argument("GPU box: download into a store of another size");
-    download_vectors(x_, p.x);
-    download_vectors(v_, p.v);
-    download_vectors(f_, p.f);
-    download_angles(w_, p.w);
-    download_angles(t_, p.tq);
+    KernelStepper<2>::download(p, r);
     if (kGear && p.aux_v.size() == 4 && p.aux_a.size() == 5) {
-      for (int k = 0; k < 4; ++k) download_vectors(r_[k], p.aux_v[k]);
-      for (int k = 0; k < 5; ++k) download_angles(q_[k], p.aux_a[k]);
+      for (int k = 0; k < 4; ++k) download_column(r_[k], 0, p.aux_v[k]);
+      for (int k = 0; k < 5; ++k) download_column(q_[k], 0, p.aux_a[k]);
     }
   }
 
-  Column<Eigen::Vector2d> reference_positions(int r) const override {
-    if (r != 0) throw std::invalid_argument("GPU box: a stepper holds one box (replica 0)");
-    Column<Eigen::Vector2d> out(n_);
-    download_vectors(x_ref_, out);
-    return out;
-  }
-
   std::vector<double> worst_overlap() override {
-    health_.resize(n_);
-    for_each(n_, BoxWorstOverlap<Law, Walls>{arrays(), walls_at(time_), nbr_.data(), count_.data(), health_.data()});
-    return {max_of(health_.data(), n_, -std::numeric_limits<double>::infinity(), max_d_, scratch_)};
+    for_each(n_, BoxWorstOverlap<Law, Walls>{arrays(), walls_at(time_), nbr(), count(), health()});
+    return worst_of_health();
   }
-
-  double time() const override { return time_; }
-  long step_count() const override { return steps_; }
-  long builds() const override { return builds_; }
-  const char* backend() const override { return kBackend; }
 
  private:
   // The smooth walls at time t (FlatBoxWalls::apply), evaluated on the host.
@@ -578,6 +401,9 @@ class BoxKernels final : public BoxStepper {
     return w;
   }
 
+  // The list's pairs: none of two wall particles.
+  NoPairWithinSpecies pairs() const { return {species_.data(), exclude_}; }
+
   BoxArrays arrays() {
     BoxArrays s{x_.data(), v_.data(), w_.data(), f_.data(), t_.data(), d_.data(), inv_m_.data(), inv_i_.data(),
                 species_.data(), anchor_.data(), {}, {}, x_ref_.data(), disp2_.data(), n_};
@@ -586,39 +412,9 @@ class BoxKernels final : public BoxStepper {
     return s;
   }
 
-  // A column of the store into a component-major array, and back.
-  static void upload_vectors(const Column<Eigen::Vector2d>& col, DeviceArray<double>& out) {
-    const std::size_t n = col.size();
-    std::vector<double> h(2 * n);
-    for (std::size_t i = 0; i < n; ++i)
-      for (int a = 0; a < 2; ++a) h[a * n + i] = col[i][a];
-    out.upload(h);
-  }
-  static void upload_angles(const Column<Ang<2>>& col, DeviceArray<double>& out) {
-    std::vector<double> h(col.size());
-    for (std::size_t i = 0; i < col.size(); ++i) h[i] = col[i][0];
-    out.upload(h);
-  }
-  void download_vectors(const DeviceArray<double>& in, Column<Eigen::Vector2d>& col) const {
-    const auto h = in.download();
-    for (unsigned i = 0; i < n_; ++i)
-      for (int a = 0; a < 2; ++a) col[i][a] = h[a * n_ + i];
-  }
-  void download_angles(const DeviceArray<double>& in, Column<Ang<2>>& col) const {
-    const auto h = in.download();
-    for (unsigned i = 0; i < n_; ++i) col[i][0] = h[i];
-  }
+  // The wall particles' anchors, by index (the shaker keeps them by id), and
+  // Gear's scaled derivatives.
   void upload(const ParticleStore<2>& p) {
-    upload_vectors(p.x, x_);
-    upload_vectors(p.v, v_);
-    upload_vectors(p.f, f_);
-    upload_angles(p.w, w_);
-    upload_angles(p.tq, t_);
-    d_.upload(p.d.data(), p.d.size());
-    inv_m_.upload(p.inv_m.data(), p.inv_m.size());
-    inv_i_.upload(p.inv_i.data(), p.inv_i.size());
-    species_.upload(p.species.data(), p.species.size());
-    // The wall particles' anchors, by index (the shaker keeps them by id).
     std::vector<double> anchor(2 * static_cast<std::size_t>(n_), 0.0);
     for (unsigned i = 0; i < n_; ++i) {
       if (p.species[i] != kWallSpecies) continue;
@@ -628,48 +424,18 @@ class BoxKernels final : public BoxStepper {
     }
     anchor_.upload(anchor);
     if constexpr (kGear) {
-      for (int k = 0; k < 4; ++k) upload_vectors(p.aux_v[k], r_[k]);
-      for (int k = 0; k < 5; ++k) upload_angles(p.aux_a[k], q_[k]);
+      for (int k = 0; k < 4; ++k) upload_column(std::vector{&p.aux_v[k]}, r_[k]);
+      for (int k = 0; k < 5; ++k) upload_column(std::vector{&p.aux_a[k]}, q_[k]);
     }
-  }
-
-  // The cell sort and the full list, from the current positions (renew) or
-  // the reference positions kept; the list grows until every row fits.
-  void build(bool renew) {
-    const BoxArrays s = arrays();
-    for_each(n_, BoxCellOf{s, grid_, renew, cell_.data(), index_.data()});
-    sort_pairs(cell_.data(), sorted_cell_.data(), index_.data(), sorted_.data(), n_, end_bit_, scratch_);
-    for_each(grid_.cells(), BoxClear{cell_start_.data(), cell_end_.data()});
-    for_each(n_, BoxCellRanges{sorted_cell_.data(), cell_start_.data(), cell_end_.data(), n_});
-    while (true) {
-      nbr_.resize(static_cast<std::size_t>(cap_) * n_);
-      for_each(n_, BoxListNeighbors<Law>{s, grid_, skin_, exclude_, cell_start_.data(), cell_end_.data(),
-                                         sorted_.data(), nbr_.data(), count_.data(), cap_});
-      const std::uint32_t longest = max_of(count_.data(), n_, std::uint32_t{0}, max_count_, scratch_);
-      if (longest <= cap_) break;
-      cap_ = longest + longest / 4 + 8;
-    }
-    ++builds_;
   }
 
   Law law_;
   ShakerMotion<2> shaker_;
   FlatBoxWalls flat_;
-  unsigned n_;
-  double time_;
-  long steps_;
-  long builds_ = 0;
-  double dt_ = 0.0, c0_ = 0.0, skin_ = 0.0, step_lim2_ = 0.0;
-  double g_[2] = {0.0, 0.0};
+  double c0_ = 0.0;
   int exclude_ = -1;
-  CellGrid2 grid_{};
-  int end_bit_ = 1;
-  unsigned cap_ = 16;  // list columns per particle
-  DeviceArray<double> x_, v_, w_, f_, t_, d_, inv_m_, inv_i_, anchor_, x_ref_, disp2_, max_d_, health_;
+  DeviceArray<double> anchor_;
   DeviceArray<double> r_[4], q_[5];
-  DeviceArray<std::int32_t> species_;
-  DeviceArray<std::uint32_t> cell_, index_, sorted_cell_, sorted_, cell_start_, cell_end_, nbr_, count_, max_count_;
-  Scratch scratch_;
 };
 
 // A stepper for the model's law, integrator and walls, in this build.
