@@ -23,7 +23,8 @@
 //               reference position, each cell's range, then every particle
 //               lists every neighbour within range + skin of the reference
 //               positions (a full list, in the order of the cell stencil),
-//               no pair of two wall particles
+//               no pair of two wall particles (gpu/neighbor_kernels.hpp, the
+//               drum's too)
 //   forces      each particle: with smooth walls, the walls' contacts
 //               (flat_box_offsets, the walls at the end of the step); then
 //               its side of each listed pair in range through the law's
@@ -62,20 +63,11 @@
 namespace granular::gpu {
 inline namespace GRANULAR_EXEC_NS {
 
-// The particles, structure of arrays: vector columns by component,
-// x[a * n + i]; Gear's scaled derivatives r2..r5 (two components each) and
-// phi0, phi2..phi5 of the angle (one each). Raw pointers into the stepper's
-// DeviceArrays.
-struct BoxArrays {
-  double* x;
-  double* v;
-  double* w;
-  double* f;
-  double* t;
-  const double* d;
-  const double* inv_m;
-  const double* inv_i;
-  const std::int32_t* species;
+// The particles (ParticleArrays, the spin and torque one component each),
+// the wall particles' anchors, Gear's scaled derivatives r2..r5 (two
+// components each) and phi0, phi2..phi5 of the angle (one each), and the
+// list's reference positions and displacements.
+struct BoxArrays : ParticleArrays {
   const double* anchor;  // wall particles' rest positions (ShakerMotion::anchor by id), by index
   double* r[4];          // r2, r3, r4, r5
   double* q[5];          // phi0, phi2, phi3, phi4, phi5
@@ -84,29 +76,10 @@ struct BoxArrays {
   unsigned n;
 };
 
-// Particle i's side of the pair (i, j): the contact through the law's
-// pair_lane, if the two are within the law's range; returns whether they are.
-// The inputs are formed as the CPU pair loop forms them (dr = r_i - r_j, the
-// box is not periodic; v = v_i - v_j).
+// Particle i's side of the pair (i, j) (pair_side; the box is not periodic).
 template <class Law>
 GRANULAR_HD bool box_pair_on_i(const Law& law, const BoxArrays& s, unsigned i, unsigned j, PairForce<2>& o) {
-  const unsigned n = s.n;
-  PairContact<2> c;
-  for (int a = 0; a < 2; ++a) c.dr[a] = s.x[a * n + i] - s.x[a * n + j];
-  c.r2 = c.dr[0] * c.dr[0] + c.dr[1] * c.dr[1];
-  c.di = s.d[i];
-  c.dj = s.d[j];
-  const double rc = Law::range(c.di, c.dj);
-  if (!(c.r2 < rc * rc)) return false;
-  for (int a = 0; a < 2; ++a) c.v[a] = s.v[a * n + i] - s.v[a * n + j];
-  c.wi[0] = s.w[i];
-  c.wj[0] = s.w[j];
-  c.ci = s.species[i];
-  c.cj = s.species[j];
-  c.inv_mi = s.inv_m[i];
-  c.inv_mj = s.inv_m[j];
-  law.pair_lane(c, o);
-  return true;
+  return pair_side(law, OpenDomain<2>{}, s, s.n, i, j, o);
 }
 
 // The smooth walls at one time (FlatBoxWalls::apply's values at y_box(t)):
@@ -189,25 +162,36 @@ GRANULAR_HD void leapfrog_half_kick(const BoxArrays& s, double dt, const double 
   leapfrog_spin_kick(hi, s.t[i], s.w[i]);
 }
 
-// The leapfrog's stage 1 (Leapfrog::first_half): walls placed, every other
-// particle kicked and drifted.
-struct LeapfrogFirst {
+// Stage 1 (Leapfrog::first_half, Gear5::first_half): wall particles placed
+// by the pose, every other particle moved by the integrator's Move
+// (move(s, i, step): its update, and the position's change into step); then
+// the displacement noted.
+template <class Move>
+struct FirstStage {
   BoxArrays s;
-  double dt;
-  double g[2];
+  Move move;
   Pose2 pose;
   double step_lim2;  // max_step_move squared
 
   GRANULAR_HD void operator()(unsigned i) const {
-    const unsigned n = s.n;
     double step[2];
-    if (s.species[i] == kWallSpecies) {
+    if (s.species[i] == kWallSpecies)
       place_wall(s, pose, i, step);
-    } else {
-      leapfrog_half_kick(s, dt, g, i);
-      for (int a = 0; a < 2; ++a) step[a] = leapfrog_drift(dt, s.v[a * n + i], s.x[a * n + i]);
-    }
+    else
+      move(s, i, step);
     note_displacement(s, i, step, step_lim2);
+  }
+};
+
+// The leapfrog's move in stage 1: a kick and the drift.
+struct LeapfrogMove {
+  double dt;
+  double g[2];
+
+  GRANULAR_HD void operator()(const BoxArrays& s, unsigned i, double (&step)[2]) const {
+    const unsigned n = s.n;
+    leapfrog_half_kick(s, dt, g, i);
+    for (int a = 0; a < 2; ++a) step[a] = leapfrog_drift(dt, s.v[a * n + i], s.x[a * n + i]);
   }
 };
 
@@ -223,27 +207,17 @@ struct LeapfrogSecond {
   }
 };
 
-// Gear's predictor (Gear5::first_half): walls placed, every other particle's
-// coordinates and angle predicted.
-struct GearPredict {
-  BoxArrays s;
+// Gear's predictor in stage 1: the coordinates and the angle predicted.
+struct GearMove {
   double dt;
-  Pose2 pose;
-  double step_lim2;  // max_step_move squared
 
-  GRANULAR_HD void operator()(unsigned i) const {
+  GRANULAR_HD void operator()(const BoxArrays& s, unsigned i, double (&step)[2]) const {
     const unsigned n = s.n;
-    double step[2];
-    if (s.species[i] == kWallSpecies) {
-      place_wall(s, pose, i, step);
-    } else {
-      for (int a = 0; a < 2; ++a) {
-        const unsigned k = a * n + i;
-        step[a] = gear_predict(dt, s.x[k], s.v[k], s.r[0][k], s.r[1][k], s.r[2][k], s.r[3][k]);
-      }
-      gear_predict(dt, s.q[0][i], s.w[i], s.q[1][i], s.q[2][i], s.q[3][i], s.q[4][i]);
+    for (int a = 0; a < 2; ++a) {
+      const unsigned k = a * n + i;
+      step[a] = gear_predict(dt, s.x[k], s.v[k], s.r[0][k], s.r[1][k], s.r[2][k], s.r[3][k]);
     }
-    note_displacement(s, i, step, step_lim2);
+    gear_predict(dt, s.q[0][i], s.w[i], s.q[1][i], s.q[2][i], s.q[3][i], s.q[4][i]);
   }
 };
 
@@ -357,9 +331,9 @@ class BoxKernels final : public KernelStepper<2> {
       const Pose2 pose{{b.dx[0], b.dx[1]}, {b.v[0], b.v[1]}};
       const BoxArrays s = arrays();
       if constexpr (kGear)
-        for_each(n_, GearPredict{s, dt_, pose, step_lim2_});
+        for_each(n_, FirstStage<GearMove>{s, {dt_}, pose, step_lim2_});
       else
-        for_each(n_, LeapfrogFirst{s, dt_, {g_[0], g_[1]}, pose, step_lim2_});
+        for_each(n_, FirstStage<LeapfrogMove>{s, {dt_, {g_[0], g_[1]}}, pose, step_lim2_});
       if (must_rebuild()) build<Law>(OpenDomain<2>{}, pairs());
       for_each(n_, BoxForces<Law, Walls>{law_, walls_at(t_next), s, nbr(), count()});
       if constexpr (kGear)

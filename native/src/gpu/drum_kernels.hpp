@@ -20,7 +20,7 @@
 //               neighbour of its replica within range + skin of the
 //               reference positions (a full list, in the order of the cell
 //               stencil): a replica's list depends on its own reference
-//               positions only
+//               positions only (gpu/neighbor_kernels.hpp, the box's too)
 //   forces      each particle: the cylinder's contact through the law's
 //               wall_lane (the wall's geometry from CylinderWall::geometry),
 //               with capped ends the caps' (EndCaps::geometry), then its
@@ -70,50 +70,20 @@ struct Box {
   GRANULAR_HD double wrapped(double x, int a) const { return x - len[a] * std::floor((x - lo[a]) * inv_len[a]); }
 };
 
-// The particles, structure of arrays: vector columns by component,
-// x[a * n + i]. Raw pointers into the stepper's DeviceArrays.
-struct DrumArrays {
-  double* x;
-  double* v;
-  double* w;
-  double* f;
-  double* t;
-  const double* d;
-  const double* inv_m;
-  const double* inv_i;
-  const std::int32_t* species;
+// The particles (ParticleArrays) and the list's reference positions and
+// displacements.
+struct DrumArrays : ParticleArrays {
   double* x_ref;  // positions at the last list build
   double* disp2;  // squared displacement since then (+infinity: an unstable step)
   unsigned n;
 };
 
-// Particle i's side of the pair (i, j): the contact through the law's
-// pair_lane, if the two are within the law's range; returns whether they are.
-// The inputs are formed as the CPU pair loop forms them (dr = r_i - r_j after
-// minimum image, v = v_i - v_j).
+// Particle i's side of the pair (i, j) (pair_side), the minimum image along
+// the periodic axis.
 template <class Law>
 GRANULAR_HD bool pair_on_i(const Law& law, const Box& box, const DrumArrays& s, unsigned i, unsigned j,
                            PairForce<3>& o) {
-  const unsigned n = s.n;
-  PairContact<3> c;
-  for (int a = 0; a < 3; ++a) c.dr[a] = s.x[a * n + i] - s.x[a * n + j];
-  box.min_image(c.dr);
-  c.r2 = c.dr[0] * c.dr[0] + c.dr[1] * c.dr[1] + c.dr[2] * c.dr[2];
-  c.di = s.d[i];
-  c.dj = s.d[j];
-  const double rc = Law::range(c.di, c.dj);
-  if (!(c.r2 < rc * rc)) return false;
-  for (int a = 0; a < 3; ++a) {
-    c.v[a] = s.v[a * n + i] - s.v[a * n + j];
-    c.wi[a] = s.w[a * n + i];
-    c.wj[a] = s.w[a * n + j];
-  }
-  c.ci = s.species[i];
-  c.cj = s.species[j];
-  c.inv_mi = s.inv_m[i];
-  c.inv_mj = s.inv_m[j];
-  law.pair_lane(c, o);
-  return true;
+  return pair_side(law, box, s, s.n, i, j, o);
 }
 
 // A wall's contact with particle i through the law's wall_lane, the
@@ -275,7 +245,8 @@ class DrumKernels final : public KernelStepper<3> {
       : KernelStepper<3>("GPU drum", pointers(ms)), law_(law), wall_(ms.front().wall), caps_(ms.front().caps) {
     const DrumModel& m = ms.front();
     for (const DrumModel& r : ms)
-      if (r.capped != (Ends == DrumEnds::capped)) throw std::invalid_argument("GPU drum: replicas must all have the same ends");
+      if (r.capped != (Ends == DrumEnds::capped))
+        throw std::invalid_argument("GPU drum: replicas must all have the same ends");
     for (int a = 0; a < 3; ++a) {
       box_.lo[a] = m.lo[a];
       box_.len[a] = m.hi[a] - m.lo[a];
@@ -316,7 +287,7 @@ class DrumKernels final : public KernelStepper<3> {
   }
 
   DrumArrays arrays() {
-    return DrumArrays{x_.data(), v_.data(), w_.data(), f_.data(),   t_.data(),     d_.data(),
+    return DrumArrays{x_.data(),     v_.data(),     w_.data(),       f_.data(),     t_.data(),     d_.data(),
                       inv_m_.data(), inv_i_.data(), species_.data(), x_ref_.data(), disp2_.data(), n_};
   }
   Kick kick() { return Kick{arrays(), dt_, {g_[0], g_[1], g_[2]}}; }

@@ -83,15 +83,15 @@ class KernelStepper : public Stepper<Dim> {
     for (int a = 0; a < Dim; ++a) g_[a] = m.gravity[a];
     for (const Model* r : ms)
       for (double d : r->p.d) d_max_ = std::max(d_max_, d);
-    upload_column(columns(ms, [](const Model& r) -> const auto& { return r.p.x; }), x_);
-    upload_column(columns(ms, [](const Model& r) -> const auto& { return r.p.v; }), v_);
-    upload_column(columns(ms, [](const Model& r) -> const auto& { return r.p.w; }), w_);
-    upload_column(columns(ms, [](const Model& r) -> const auto& { return r.p.f; }), f_);
-    upload_column(columns(ms, [](const Model& r) -> const auto& { return r.p.tq; }), t_);
-    upload_column(columns(ms, [](const Model& r) -> const auto& { return r.p.d; }), d_);
-    upload_column(columns(ms, [](const Model& r) -> const auto& { return r.p.inv_m; }), inv_m_);
-    upload_column(columns(ms, [](const Model& r) -> const auto& { return r.p.inv_i; }), inv_i_);
-    upload_column(columns(ms, [](const Model& r) -> const auto& { return r.p.species; }), species_);
+    upload_column(columns(ms, &ParticleStore<Dim>::x), x_);
+    upload_column(columns(ms, &ParticleStore<Dim>::v), v_);
+    upload_column(columns(ms, &ParticleStore<Dim>::w), w_);
+    upload_column(columns(ms, &ParticleStore<Dim>::f), f_);
+    upload_column(columns(ms, &ParticleStore<Dim>::tq), t_);
+    upload_column(columns(ms, &ParticleStore<Dim>::d), d_);
+    upload_column(columns(ms, &ParticleStore<Dim>::inv_m), inv_m_);
+    upload_column(columns(ms, &ParticleStore<Dim>::inv_i), inv_i_);
+    upload_column(columns(ms, &ParticleStore<Dim>::species), species_);
     std::vector<std::uint32_t> rep(n_);
     for (unsigned r = 0; r < k_; ++r)
       for (std::uint32_t i = offsets_[r]; i < offsets_[r + 1]; ++i) rep[i] = r;
@@ -104,7 +104,9 @@ class KernelStepper : public Stepper<Dim> {
       for (const Model* r : ms)
         if (r->x_ref.size() != r->p.size())
           throw std::invalid_argument(who_ + ": the list's reference positions are not one per particle");
-      upload_column(columns(ms, [](const Model& r) -> const auto& { return r.x_ref; }), x_ref_);
+      std::vector<const Column<Vec<Dim>>*> refs;
+      for (const Model* r : ms) refs.push_back(&r->x_ref);
+      upload_column(refs, x_ref_);
     } else {
       x_ref_.resize(Dim * static_cast<std::size_t>(n_));
     }
@@ -177,11 +179,12 @@ class KernelStepper : public Stepper<Dim> {
     return offsets_[r];
   }
 
-  // Each replica's column get(model).
-  template <class Model, class Get>
-  static auto columns(const std::vector<const Model*>& ms, Get get) {
-    std::vector<const std::decay_t<decltype(get(*ms.front()))>*> out;
-    for (const Model* m : ms) out.push_back(&get(*m));
+  // Each replica's column col of its store.
+  template <class Model, class E>
+  static std::vector<const Column<E>*> columns(const std::vector<const Model*>& ms,
+                                               Column<E> ParticleStore<Dim>::*col) {
+    std::vector<const Column<E>*> out;
+    for (const Model* m : ms) out.push_back(&(m->p.*col));
     return out;
   }
   // The replicas' columns (cols[r]: replica r's) into one component-major

@@ -1,9 +1,10 @@
-// The GPU path's cell sort and full neighbour list, one source for the drum
-// (3D, periodic along its axis, replicas side by side) and the shaken box
-// (2D, open, no pair of two wall particles), and for both builds
-// (gpu/exec.hpp). The scene's differences are template parameters chosen
-// once per stepper: the domain's minimum image (Domain), and which pairs the
-// list leaves out (Filter).
+// What the GPU path's kernels share between the drum (3D, periodic along its
+// axis, replicas side by side) and the shaken box (2D, open, no pair of two
+// wall particles), one source for both builds (gpu/exec.hpp): the particles'
+// arrays, a pair's contact through the law's pair_lane, the health check's
+// overlaps, and the cell sort and full neighbour list. The scene's
+// differences are template parameters chosen once per stepper: the domain's
+// minimum image (Domain), and which pairs the list leaves out (Filter).
 //
 // A build, for the replicas marked for renewal: their reference positions
 // are set to the current ones; then particles are sorted by the cell of their
@@ -20,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "contact/lane.hpp"
 #include "gpu/exec.hpp"
 
 namespace granular::gpu {
@@ -39,6 +41,50 @@ template <int Dim>
 struct OpenDomain {
   GRANULAR_HD void min_image(double (&)[Dim]) const {}
 };
+
+// The particles' columns both scenes have, structure of arrays: vector
+// columns by component, x[a * n + i], the spin and torque with kAngDim<Dim>
+// components. Raw pointers into the stepper's DeviceArrays; each scene's
+// arrays (DrumArrays, BoxArrays) add theirs.
+struct ParticleArrays {
+  double* x;
+  double* v;
+  double* w;
+  double* f;
+  double* t;
+  const double* d;
+  const double* inv_m;
+  const double* inv_i;
+  const std::int32_t* species;
+};
+
+// Particle i's side of the pair (i, j): the contact through the law's
+// pair_lane, if the two are within the law's range; returns whether they are.
+// The inputs are formed as the CPU pair loop forms them (dr = r_i - r_j after
+// the domain's minimum image, v = v_i - v_j).
+template <class Law, int Dim, class Domain>
+GRANULAR_HD bool pair_side(const Law& law, const Domain& domain, const ParticleArrays& s, unsigned n, unsigned i,
+                           unsigned j, PairForce<Dim>& o) {
+  PairContact<Dim> c;
+  for (int a = 0; a < Dim; ++a) c.dr[a] = s.x[a * n + i] - s.x[a * n + j];
+  domain.min_image(c.dr);
+  c.r2 = norm2(c.dr);
+  c.di = s.d[i];
+  c.dj = s.d[j];
+  const double rc = Law::range(c.di, c.dj);
+  if (!(c.r2 < rc * rc)) return false;
+  for (int a = 0; a < Dim; ++a) c.v[a] = s.v[a * n + i] - s.v[a * n + j];
+  for (int a = 0; a < kAngDim<Dim>; ++a) {
+    c.wi[a] = s.w[a * n + i];
+    c.wj[a] = s.w[a * n + j];
+  }
+  c.ci = s.species[i];
+  c.cj = s.species[j];
+  c.inv_mi = s.inv_m[i];
+  c.inv_mj = s.inv_m[j];
+  law.pair_lane(c, o);
+  return true;
+}
 
 // What the list needs of the particles, structure of arrays (x[a * n + i]):
 // the positions, the reference positions it is built from (written where a
@@ -212,7 +258,7 @@ struct ListNeighbors {
       }
     }
     unsigned m = 0;
-    for_stencil<0>(first, last, o, [&](const int (&off)[Dim]) {
+    for_stencil<0>(first, last, o, [&](const int(&off)[Dim]) {
       int cq[Dim];
       for (int a = 0; a < Dim; ++a) cq[a] = (q[a] + off[a] + grid.n[a]) % grid.n[a];
       const std::uint32_t c = base + grid.index(cq);
@@ -304,8 +350,8 @@ class NeighborList {
     while (true) {
       nbr_.resize(static_cast<std::size_t>(cap_) * n_);
       for_each(n_, ListNeighbors<Law, Dim, Domain, Filter>{s, domain, filter, grid_, replica, skin, cell_start_.data(),
-                                                           cell_end_.data(), sorted_.data(), nbr_.data(),
-                                                           count_.data(), cap_});
+                                                           cell_end_.data(), sorted_.data(), nbr_.data(), count_.data(),
+                                                           cap_});
       const std::uint32_t longest = max_of(count_.data(), n_, std::uint32_t{0}, max_count_, scratch);
       if (longest <= cap_) break;
       cap_ = longest + longest / 4 + 8;

@@ -12,6 +12,7 @@
 #pragma once
 #include <algorithm>
 #include <array>
+#include <cstddef>
 #include <vector>
 
 #include "core/particles.hpp"
@@ -61,6 +62,26 @@ std::array<int, Dim> cell_counts(const std::array<double, Dim>& lo, const std::a
     if (periodic[a] && c[a] < 3) c[a] = 1;
   }
   return c;
+}
+
+// The fields a model (DrumModel, BoxModel) takes from its CPU simulation as
+// they are: the law, the integrator's dt and gravity, the domain [lo, hi),
+// the skin, the time and step count, the move limit
+// (Simulation::max_step_move) and the state.
+template <class Model, class Sim>
+void take_simulation(Model& m, const Sim& s) {
+  m.law = s.law;
+  m.dt = s.integrator.dt;
+  for (std::size_t a = 0; a < m.lo.size(); ++a) {
+    m.gravity[a] = s.integrator.gravity[a];
+    m.lo[a] = s.domain.lo[a];
+    m.hi[a] = s.domain.hi[a];
+  }
+  m.skin = s.skin;
+  m.time = s.time;
+  m.step_count = s.step_count;
+  m.max_step_move = s.max_step_move();
+  m.p = s.p;
 }
 
 }  // namespace granular::gpu
