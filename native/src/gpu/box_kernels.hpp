@@ -254,16 +254,10 @@ struct BoxForces {
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
-    double f[2] = {0.0, 0.0}, t = 0.0;
-    if constexpr (Walls == BoxWalls::smooth) flat_walls_on_i(law, walls, s, i, f, t);
-    for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
-      PairForce<2> pf;
-      if (!box_pair_on_i(law, s, i, nbr[m * n + i], pf)) continue;
-      for (int a = 0; a < 2; ++a) f[a] += pf.f[a];
-      t += pf.ti[0];
-    }
-    for (int a = 0; a < 2; ++a) s.f[a * n + i] = f[a];
-    s.t[i] = t;
+    double f[2] = {0.0, 0.0}, t[1] = {0.0};
+    if constexpr (Walls == BoxWalls::smooth) flat_walls_on_i(law, walls, s, i, f, t[0]);
+    add_listed_pairs(law, OpenDomain<2>{}, s, n, nbr, count, i, f, t);
+    store_force(s, n, i, f, t);
   }
 };
 

@@ -202,18 +202,8 @@ struct Forces {
     if (wall_on_i(law, wall, s, i, wf)) add();
     if constexpr (Ends == DrumEnds::capped)
       if (caps_on_i(law, caps, s, i, wf)) add();
-    for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
-      PairForce<3> pf;
-      if (!pair_on_i(law, box, s, i, nbr[m * n + i], pf)) continue;
-      for (int a = 0; a < 3; ++a) {
-        f[a] += pf.f[a];
-        t[a] += pf.ti[a];
-      }
-    }
-    for (int a = 0; a < 3; ++a) {
-      s.f[a * n + i] = f[a];
-      s.t[a * n + i] = t[a];
-    }
+    add_listed_pairs(law, box, s, n, nbr, count, i, f, t);
+    store_force(s, n, i, f, t);
   }
 };
 

@@ -86,6 +86,29 @@ GRANULAR_HD bool pair_side(const Law& law, const Domain& domain, const ParticleA
   return true;
 }
 
+// Particle i's side of every listed pair in range (pair_side; row i of the
+// list: nbr[m * n + i], m < count[i]) added to its force f and torque t, in
+// list order.
+template <class Law, int Dim, class Domain>
+GRANULAR_HD void add_listed_pairs(const Law& law, const Domain& domain, const ParticleArrays& s, unsigned n,
+                                  const std::uint32_t* nbr, const std::uint32_t* count, unsigned i, double (&f)[Dim],
+                                  double (&t)[kAngDim<Dim>]) {
+  for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
+    PairForce<Dim> pf;
+    if (!pair_side(law, domain, s, n, i, nbr[m * n + i], pf)) continue;
+    for (int a = 0; a < Dim; ++a) f[a] += pf.f[a];
+    for (int a = 0; a < kAngDim<Dim>; ++a) t[a] += pf.ti[a];
+  }
+}
+
+// Particle i's force f and torque t into its columns.
+template <int Dim>
+GRANULAR_HD void store_force(const ParticleArrays& s, unsigned n, unsigned i, const double (&f)[Dim],
+                             const double (&t)[kAngDim<Dim>]) {
+  for (int a = 0; a < Dim; ++a) s.f[a * n + i] = f[a];
+  for (int a = 0; a < kAngDim<Dim>; ++a) s.t[a * n + i] = t[a];
+}
+
 // What the list needs of the particles, structure of arrays (x[a * n + i]):
 // the positions, the reference positions it is built from (written where a
 // replica renews them) and the diameters.
