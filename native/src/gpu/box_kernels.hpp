@@ -249,14 +249,13 @@ struct BoxForces {
   Law law;
   FlatWalls2 walls;
   BoxArrays s;
-  const std::uint32_t* nbr;
-  const std::uint32_t* count;
+  ListRows list;
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
     double f[2] = {0.0, 0.0}, t[1] = {0.0};
     if constexpr (Walls == BoxWalls::smooth) flat_walls_on_i(law, walls, s, i, f, t[0]);
-    add_listed_pairs(law, OpenDomain<2>{}, s, n, nbr, count, i, f, t);
+    add_listed_pairs(law, OpenDomain<2>{}, s, n, list, i, f, t);
     store_force(s, n, i, f, t);
   }
 };
@@ -270,8 +269,7 @@ template <class Law, BoxWalls Walls>
 struct BoxWorstOverlap {
   BoxArrays s;
   FlatWalls2 walls;
-  const std::uint32_t* nbr;
-  const std::uint32_t* count;
+  ListRows list;
   double* out;
 
   GRANULAR_HD void operator()(unsigned i) const {
@@ -280,7 +278,7 @@ struct BoxWorstOverlap {
       out[i] = std::numeric_limits<double>::infinity();
       return;
     }
-    double worst = worst_listed_overlap<Law, 2>(s.x, s.d, n, OpenDomain<2>{}, nbr, count, i);
+    double worst = worst_listed_overlap<Law, 2>(s.x, s.d, n, OpenDomain<2>{}, list, i);
     if constexpr (Walls == BoxWalls::smooth) {
       if (s.species[i] != kWallSpecies) {
         const double rc = 0.5 * s.d[i] + 0.5 * walls.d_wall;
@@ -329,7 +327,7 @@ class BoxKernels final : public KernelStepper<2> {
       else
         for_each(n_, FirstStage<LeapfrogMove>{s, {dt_, {g_[0], g_[1]}}, pose, step_lim2_});
       if (must_rebuild()) build<Law>(OpenDomain<2>{}, pairs());
-      for_each(n_, BoxForces<Law, Walls>{law_, walls_at(t_next), s, nbr(), count()});
+      for_each(n_, BoxForces<Law, Walls>{law_, walls_at(t_next), s, rows()});
       if constexpr (kGear)
         for_each(n_, GearCorrect{s, dt_, c0_, {g_[0], g_[1]}});
       else
@@ -349,7 +347,7 @@ class BoxKernels final : public KernelStepper<2> {
   }
 
   std::vector<double> worst_overlap() override {
-    for_each(n_, BoxWorstOverlap<Law, Walls>{arrays(), walls_at(time_), nbr(), count(), health()});
+    for_each(n_, BoxWorstOverlap<Law, Walls>{arrays(), walls_at(time_), rows(), health()});
     return worst_of_health();
   }
 

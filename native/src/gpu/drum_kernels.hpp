@@ -186,8 +186,7 @@ struct Forces {
   EndCaps caps;
   Box box;
   DrumArrays s;
-  const std::uint32_t* nbr;
-  const std::uint32_t* count;
+  ListRows list;
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
@@ -202,7 +201,7 @@ struct Forces {
     if (wall_on_i(law, wall, s, i, wf)) add();
     if constexpr (Ends == DrumEnds::capped)
       if (caps_on_i(law, caps, s, i, wf)) add();
-    add_listed_pairs(law, box, s, n, nbr, count, i, f, t);
+    add_listed_pairs(law, box, s, n, list, i, f, t);
     store_force(s, n, i, f, t);
   }
 };
@@ -215,13 +214,12 @@ template <class Law>
 struct WorstOverlap {
   DrumArrays s;
   Box box;
-  const std::uint32_t* nbr;
-  const std::uint32_t* count;
+  ListRows list;
   double* out;
 
   GRANULAR_HD void operator()(unsigned i) const {
     out[i] = finite_motion<3, 3>(s.x, s.v, s.w, s.n, i)
-                 ? worst_listed_overlap<Law, 3>(s.x, s.d, s.n, box, nbr, count, i)
+                 ? worst_listed_overlap<Law, 3>(s.x, s.d, s.n, box, list, i)
                  : std::numeric_limits<double>::infinity();
   }
 };
@@ -265,7 +263,7 @@ class DrumKernels final : public KernelStepper<3> {
   }
 
   std::vector<double> worst_overlap() override {
-    for_each(n_, WorstOverlap<Law>{arrays(), box_, nbr(), count(), health()});
+    for_each(n_, WorstOverlap<Law>{arrays(), box_, rows(), health()});
     return worst_of_health();
   }
 
@@ -282,7 +280,7 @@ class DrumKernels final : public KernelStepper<3> {
   }
   Kick kick() { return Kick{arrays(), dt_, {g_[0], g_[1], g_[2]}}; }
 
-  void forces() { for_each(n_, Forces<Law, Ends>{law_, wall_, caps_, box_, arrays(), nbr(), count()}); }
+  void forces() { for_each(n_, Forces<Law, Ends>{law_, wall_, caps_, box_, arrays(), rows()}); }
 
   Law law_;
   CylinderWall wall_;

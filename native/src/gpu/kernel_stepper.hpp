@@ -168,8 +168,7 @@ class KernelStepper : public Stepper<Dim> {
   }
 
   ListPositions positions() { return ListPositions{x_.data(), x_ref_.data(), d_.data(), n_}; }
-  const std::uint32_t* nbr() const { return list_.nbr(); }
-  const std::uint32_t* count() const { return list_.count(); }
+  ListRows rows() const { return list_.rows(); }
 
   // Replica r's first particle; std::invalid_argument for a replica the
   // stepper does not hold.

@@ -86,16 +86,21 @@ GRANULAR_HD bool pair_side(const Law& law, const Domain& domain, const ParticleA
   return true;
 }
 
-// Particle i's side of every listed pair in range (pair_side; row i of the
-// list: nbr[m * n + i], m < count[i]) added to its force f and torque t, in
-// list order.
+// The full list as the kernels read it: row i's column m is
+// nbr[m * n + i], m < count[i].
+struct ListRows {
+  const std::uint32_t* nbr;
+  const std::uint32_t* count;
+};
+
+// Particle i's side of every listed pair in range (pair_side) added to its
+// force f and torque t, in list order.
 template <class Law, int Dim, class Domain>
 GRANULAR_HD void add_listed_pairs(const Law& law, const Domain& domain, const ParticleArrays& s, unsigned n,
-                                  const std::uint32_t* nbr, const std::uint32_t* count, unsigned i, double (&f)[Dim],
-                                  double (&t)[kAngDim<Dim>]) {
-  for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
+                                  const ListRows& list, unsigned i, double (&f)[Dim], double (&t)[kAngDim<Dim>]) {
+  for (std::uint32_t m = 0, me = list.count[i]; m < me; ++m) {
     PairForce<Dim> pf;
-    if (!pair_side(law, domain, s, n, i, nbr[m * n + i], pf)) continue;
+    if (!pair_side(law, domain, s, n, i, list.nbr[m * n + i], pf)) continue;
     for (int a = 0; a < Dim; ++a) f[a] += pf.f[a];
     for (int a = 0; a < kAngDim<Dim>; ++a) t[a] += pf.ti[a];
   }
@@ -320,10 +325,10 @@ GRANULAR_HD bool finite_motion(const double* x, const double* v, const double* w
 // without one.
 template <class Law, int Dim, class Domain>
 GRANULAR_HD double worst_listed_overlap(const double* x, const double* d, unsigned n, const Domain& domain,
-                                        const std::uint32_t* nbr, const std::uint32_t* count, unsigned i) {
+                                        const ListRows& list, unsigned i) {
   double worst = -std::numeric_limits<double>::infinity();
-  for (std::uint32_t m = 0, me = count[i]; m < me; ++m) {
-    const unsigned j = nbr[m * n + i];
+  for (std::uint32_t m = 0, me = list.count[i]; m < me; ++m) {
+    const unsigned j = list.nbr[m * n + i];
     double dr[Dim];
     for (int a = 0; a < Dim; ++a) dr[a] = x[a * n + i] - x[a * n + j];
     domain.min_image(dr);
@@ -382,8 +387,7 @@ class NeighborList {
     ++builds_;
   }
 
-  const std::uint32_t* nbr() const { return nbr_.data(); }
-  const std::uint32_t* count() const { return count_.data(); }
+  ListRows rows() const { return {nbr_.data(), count_.data()}; }
   long builds() const { return builds_; }
 
  private:
