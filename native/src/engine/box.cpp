@@ -183,17 +183,9 @@ RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, co
   run_loop(out, progress, [&] {
     for (long k = start; k < total;) {
       const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
-      if (driver)
-        driver->advance(next - k);
-      else
-        sim.advance(next - k);
+      advance_run(driver, sim, next - k);
       k = next;
-      if (k % health.every == 0 || k == total) {
-        if (driver)
-          driver->check_health(health);
-        else
-          check_box_health(sim, health);
-      }
+      if (k % health.every == 0 || k == total) check_run_health(driver, health, [&] { check_box_health(sim, health); });
       observe(k == settle_steps || k == total);
       const long saved = checkpoints.written();
       if (driver)

@@ -213,18 +213,10 @@ RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, RunDriver* d
   run_loop(outs, progress, [&] {
     for (long k = start; k < total;) {
       const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
-      if (driver)
-        driver->advance(next - k);
-      else
-        sim.advance(next - k);
+      advance_run(driver, sim, next - k);
       k = next;
       const bool fin = k == total;
-      if (k % health.every == 0 || fin) {
-        if (driver)
-          driver->check_health(health);
-        else
-          check_health(sim, health);
-      }
+      if (k % health.every == 0 || fin) check_run_health(driver, health, [&] { check_health(sim, health); });
       for (std::size_t r = 0; r < members; ++r) observe(r, fin);
       // Every member checkpoints before a stop signal ends the run.
       std::optional<Interrupted> stop;

@@ -35,4 +35,23 @@ class RunDriver {
   virtual void capture(std::size_t r, CheckpointData& c) = 0;
 };
 
+// n steps of a run: by its driver where it has one (driver not null), else
+// by its simulation.
+template <class Sim>
+void advance_run(RunDriver* driver, Sim& sim, long n) {
+  if (driver)
+    driver->advance(n);
+  else
+    sim.advance(n);
+}
+
+// A run's health check: its driver's where it has one, else cpu_check().
+template <class Check>
+void check_run_health(RunDriver* driver, const HealthLimits& lim, Check&& cpu_check) {
+  if (driver)
+    driver->check_health(lim);
+  else
+    cpu_check();
+}
+
 }  // namespace granular

@@ -11,8 +11,8 @@
 // The interface is backend-neutral, as the drum's (gpu/drum_gpu.hpp): a
 // BoxModel (everything a step needs, as plain values, taken from a CPU box
 // simulation, gpu/box_model.hpp) and a BoxStepper that advances it, with the
-// DrumStepper's interface so that one driver (gpu/stepper_driver.hpp) runs
-// either on the CPU engine's run loop. A BoxStepper holds one box (replica 0).
+// drum's interface (gpu/stepper.hpp) so that one driver
+// (gpu/stepper_driver.hpp) runs either on the CPU engine's run loop.
 #pragma once
 #include <array>
 #include <limits>
@@ -25,7 +25,7 @@
 #include "contact/laws.hpp"
 #include "core/particles.hpp"
 #include "core/type_list.hpp"
-#include "gpu/step_unstable.hpp"
+#include "gpu/stepper.hpp"
 #include "integrate/motion.hpp"
 
 namespace granular {
@@ -84,30 +84,10 @@ struct BoxModel {
   Column<Eigen::Vector2d> x_ref;
 };
 
-// Advances a BoxModel's state on one backend.
-class BoxStepper {
- public:
-  virtual ~BoxStepper() = default;
-  // n steps of the model's integrator, as Simulation::advance takes them.
-  // Throws StepUnstable (the state as it describes) or std::runtime_error.
-  virtual void advance(long n) = 0;
-  // The state (x, v, w, f, tq, and Gear's aux columns where p has them) into
-  // p, which holds the model's particles in the model's order; r = 0.
-  virtual void download(ParticleStore<2>& p, int r = 0) const = 0;
-  // The positions at the last neighbour-list build (the checkpoint's x_ref).
-  virtual Column<Eigen::Vector2d> reference_positions(int r = 0) const = 0;
-  // The largest overlap of a listed pair in range as a fraction of its
-  // contact distance Law::range(d_i, d_j) (engine/health.hpp's measure), and
-  // with smooth walls of a grain with a wall as a fraction of R_i + r_w
-  // (FlatBoxWalls::deepest's); +infinity where a position or velocity is not
-  // finite, -infinity where there is no contact. One value (one replica).
-  virtual std::vector<double> worst_overlap() = 0;
-  int replicas() const { return 1; }
-  virtual double time() const = 0;
-  virtual long step_count() const = 0;
-  virtual long builds() const = 0;          // neighbour-list builds so far
-  virtual const char* backend() const = 0;  // "host" or "cuda"
-};
+// Advances a BoxModel's state on one backend (gpu/stepper.hpp): n steps of
+// the model's integrator at a time, with Gear's aux columns downloaded where
+// the store has them. A BoxStepper holds one box (replica 0).
+using BoxStepper = Stepper<2>;
 
 // The kernels built by the host compiler, run as loops on the CPU (gpu/box_host.cpp).
 std::unique_ptr<BoxStepper> make_host_box(const BoxModel& m);

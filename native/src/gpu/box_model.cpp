@@ -22,20 +22,13 @@ BoxModel box_model(const BoxSim& sim) {
         using Sim = std::decay_t<decltype(s)>;
         using Integrator = std::decay_t<decltype(s.integrator)>;
         BoxModel m;
-        m.law = s.law;
-        m.dt = s.integrator.dt;
+        take_simulation(m, s);
         if constexpr (IsGear<Integrator>::value) {
           m.integrator = BoxIntegrator::gear;
           m.gear_c0 = s.integrator.c0;
         } else {
           m.integrator = BoxIntegrator::leapfrog;
         }
-        for (int a = 0; a < 2; ++a) {
-          m.gravity[a] = s.integrator.gravity[a];
-          m.lo[a] = s.domain.lo[a];
-          m.hi[a] = s.domain.hi[a];
-        }
-        m.skin = s.skin;
         m.exclude_species = s.exclude_species;
         if constexpr (Sim::template kHasWall<FlatBoxWalls>) {
           m.walls = BoxWalls::smooth;
@@ -44,10 +37,6 @@ BoxModel box_model(const BoxSim& sim) {
         } else {
           m.shaker = s.integrator.motion;
         }
-        m.time = s.time;
-        m.step_count = s.step_count;
-        m.max_step_move = s.max_step_move();
-        m.p = s.p;
         return m;
       },
       sim);

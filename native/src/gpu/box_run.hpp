@@ -5,30 +5,27 @@
 // one member.
 #pragma once
 #include <memory>
-#include <vector>
 
 #include "engine/box.hpp"
 #include "gpu/box_gpu.hpp"
+#include "gpu/box_model.hpp"
 #include "gpu/stepper_driver.hpp"
 #include "scene/box_scene.hpp"
 
 namespace granular::gpu {
 
-// The box's part of the driver (gpu/stepper_driver.hpp, Kind): the box's
-// model, and its health check (engine/box.hpp, check_box_health: the listed
-// pairs' overlaps and the smooth walls').
-struct BoxKind {
-  using SimVariant = BoxSim;
-  using Model = BoxModel;
-  using Stepper = BoxStepper;
-  static BoxModel model(const BoxSim& sim);
+// The box's health check (engine/box.hpp, check_box_health): the listed
+// pairs' overlaps and the smooth walls'.
+struct BoxHealth {
   template <class Sim>
-  static void check(const Sim& sim, const HealthLimits& lim) {
+  void operator()(const Sim& sim, const HealthLimits& lim) const {
     check_box_health(sim, lim);
   }
 };
 
-// Makes the stepper of one box (make_host_box, make_cuda_box).
+// The box's part of the driver (gpu/stepper_driver.hpp, SceneKind), and the
+// maker of the stepper of one box (make_host_box, make_cuda_box).
+using BoxKind = SceneKind<BoxSim, BoxModel, 2, &box_model, BoxHealth>;
 using BoxStepperFactory = StepperFactoryOf<BoxKind>;
 
 // The driver (engine/run_driver.hpp) of the box sim, made from scene s,

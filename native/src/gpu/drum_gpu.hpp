@@ -27,7 +27,7 @@
 #include "contact/laws.hpp"
 #include "core/particles.hpp"
 #include "core/type_list.hpp"
-#include "gpu/step_unstable.hpp"
+#include "gpu/stepper.hpp"
 
 namespace granular::gpu {
 
@@ -66,34 +66,11 @@ struct DrumModel {
   Column<Eigen::Vector3d> x_ref;
 };
 
-// Advances the state of one or several DrumModels (replicas) on one backend.
-// The replicas share everything but their particles (one scene, several
-// seeds); each is stepped as it would be alone: its neighbour list is rebuilt
-// when its own particles have moved far enough, from its own reference
-// positions, so replica k gives the bits a stepper of replica k alone gives.
-class DrumStepper {
- public:
-  virtual ~DrumStepper() = default;
-  // n steps of the leapfrog (integrate/leapfrog.hpp): at the end the
-  // velocities are those of the full step, as after Simulation::advance.
-  // Throws StepUnstable (the state as it describes) or std::runtime_error.
-  virtual void advance(long n) = 0;
-  // Replica r's state (x, v, w, f, tq) into p, which holds that model's
-  // particles in the model's order.
-  virtual void download(ParticleStore<3>& p, int r = 0) const = 0;
-  // Replica r's positions at its last neighbour-list build (the checkpoint's x_ref).
-  virtual Column<Eigen::Vector3d> reference_positions(int r = 0) const = 0;
-  // Per replica, the largest overlap of a listed pair in range as a fraction
-  // of its contact distance Law::range(d_i, d_j) (engine/health.hpp's
-  // measure), +infinity where a position or velocity is not finite; -infinity
-  // where no listed pair is in range.
-  virtual std::vector<double> worst_overlap() = 0;
-  virtual int replicas() const = 0;
-  virtual double time() const = 0;
-  virtual long step_count() const = 0;
-  virtual long builds() const = 0;             // neighbour-list builds so far (any replica's)
-  virtual const char* backend() const = 0;     // "host" or "cuda"
-};
+// Advances the state of one or several DrumModels (replicas) on one backend
+// (gpu/stepper.hpp): n steps of the leapfrog (integrate/leapfrog.hpp) at a
+// time; worst_overlap covers the listed pairs (the cylinder and the caps are
+// not particles of the list).
+using DrumStepper = Stepper<3>;
 
 // The kernels built by the host compiler, run as loops on the CPU (gpu/drum_host.cpp).
 std::unique_ptr<DrumStepper> make_host_drum(const DrumModel& m);
@@ -132,13 +109,7 @@ std::size_t expected_list_columns(double reach, double d_min);
 // particle's range plus the skin wide; a periodic axis too short for three
 // cells is one cell (neighbor/cell_list.hpp's rule; the stepper's grid).
 inline std::array<int, 3> cell_counts(const DrumModel& m, double min_cell) {
-  std::array<int, 3> c{};
-  for (int a = 0; a < 3; ++a) {
-    const double len = m.hi[a] - m.lo[a];
-    c[a] = std::max(1, static_cast<int>(len / min_cell));
-    if (m.periodic[a] && c[a] < 3) c[a] = 1;
-  }
-  return c;
+  return cell_counts(m.lo, m.hi, m.periodic, min_cell);
 }
 
 // The sizing of replicas of m (each m.p.size() particles).

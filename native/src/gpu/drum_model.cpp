@@ -15,24 +15,13 @@ DrumModel drum_model(const DrumSim& sim) {
       [](const auto& s) -> DrumModel {
         using Sim = std::decay_t<decltype(s)>;
         DrumModel m;
-        m.law = s.law;
+        take_simulation(m, s);
         m.wall = std::get<CylinderWall>(s.walls);
         if constexpr (Sim::template kHasWall<EndCaps>) {
           m.capped = true;
           m.caps = std::get<EndCaps>(s.walls);
         }
-        for (int a = 0; a < 3; ++a) {
-          m.lo[a] = s.domain.lo[a];
-          m.hi[a] = s.domain.hi[a];
-          m.periodic[a] = s.domain.periodic[a];
-          m.gravity[a] = s.integrator.gravity[a];
-        }
-        m.dt = s.integrator.dt;
-        m.skin = s.skin;
-        m.time = s.time;
-        m.step_count = s.step_count;
-        m.max_step_move = s.max_step_move();
-        m.p = s.p;
+        for (int a = 0; a < 3; ++a) m.periodic[a] = s.domain.periodic[a];
         return m;
       },
       sim);

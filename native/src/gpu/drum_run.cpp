@@ -3,11 +3,7 @@
 #include <stdexcept>
 #include <utility>
 
-#include "gpu/drum_model.hpp"
-
 namespace granular::gpu {
-
-DrumModel DrumKind::model(const DrumSim& sim) { return drum_model(sim); }
 
 std::unique_ptr<RunDriver> make_drum_driver(const DrumScene& s, std::vector<DrumSim*> sims, StepperFactory make,
                                             std::vector<std::string> labels) {

@@ -9,24 +9,24 @@
 
 #include "engine/drum.hpp"
 #include "gpu/drum_gpu.hpp"
+#include "gpu/drum_model.hpp"
 #include "gpu/stepper_driver.hpp"
 #include "scene/drum_scene.hpp"
 
 namespace granular::gpu {
 
-// The drum's part of the driver (gpu/stepper_driver.hpp, Kind).
-struct DrumKind {
-  using SimVariant = DrumSim;
-  using Model = DrumModel;
-  using Stepper = DrumStepper;
-  static DrumModel model(const DrumSim& sim);
+// The drum's health check: engine/health.hpp's, over the listed pairs.
+struct DrumHealth {
   template <class Sim>
-  static void check(const Sim& sim, const HealthLimits& lim) {
+  void operator()(const Sim& sim, const HealthLimits& lim) const {
     granular::check_health(sim, lim);
   }
 };
 
-// Makes the stepper of one or several replicas (make_host_drum, make_cuda_drum).
+// The drum's part of the driver (gpu/stepper_driver.hpp, SceneKind), and the
+// maker of the stepper of one or several replicas (make_host_drum,
+// make_cuda_drum).
+using DrumKind = SceneKind<DrumSim, DrumModel, 3, &drum_model, DrumHealth>;
 using StepperFactory = StepperFactoryOf<DrumKind>;
 
 // The driver (engine/run_driver.hpp) of the drums sims[0..K) (one scene, K

@@ -30,6 +30,7 @@
 #include "engine/health.hpp"
 #include "engine/run_driver.hpp"
 #include "gpu/step_unstable.hpp"
+#include "gpu/stepper.hpp"
 
 namespace granular::gpu {
 
@@ -45,7 +46,7 @@ inline std::string unsupported_scene(const std::string& kind) {
 // CPU engine's lack: a run resumes on the engine that wrote its checkpoint.
 inline constexpr const char* kCheckpointKey = "gpu_path";
 
-// Kind, a scene's part of the driver:
+// Kind, a scene's part of the driver (SceneKind):
 //   SimVariant, Model, Stepper        DrumSim, DrumModel, DrumStepper (or the box's)
 //   static Model model(const SimVariant&)                 the stepper's model of a simulation
 //   template <class Sim> static void check(const Sim&, const HealthLimits&)
@@ -54,6 +55,21 @@ inline constexpr const char* kCheckpointKey = "gpu_path";
 template <class Kind>
 using StepperFactoryOf =
     std::unique_ptr<typename Kind::Stepper> (*)(const std::vector<typename Kind::Model>&);
+
+// The Kind of a scene whose simulations are the alternatives of Variant, its
+// model made by ModelOf and stepped by a Stepper<Dim>, its health check
+// Health{}(sim, limits).
+template <class Variant, class ModelT, int Dim, ModelT (*ModelOf)(const Variant&), class Health>
+struct SceneKind {
+  using SimVariant = Variant;
+  using Model = ModelT;
+  using Stepper = gpu::Stepper<Dim>;
+  static Model model(const Variant& sim) { return ModelOf(sim); }
+  template <class Sim>
+  static void check(const Sim& sim, const HealthLimits& lim) {
+    Health{}(sim, lim);
+  }
+};
 
 // The driver of sims[0..K) (one scene, K seeds; Sim: their alternative),
 // stepped together as the replicas of one stepper from `make`. view: a
