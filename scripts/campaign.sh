@@ -7,25 +7,28 @@
 # continues from it (--resume), any other leftover is started again (--force).
 # Each job writes OUTPUT.log beside its output. The engine is $GRANULAR_BIN, or
 # build/granular (scripts/table1_campaign.sh pins one built from a fixed commit),
-# at niceness $CAMPAIGN_NICE (default 19). Each run is started by setsid and
-# its scheduler group (/proc/PID/autogroup, where the kernel groups processes
-# by setsid) is given the same niceness: with autogroups on, a
-# process's niceness ranks it only within its group, and groups share the
-# cores equally, so without this a niced run would take as much as an
-# interactive build.
+# at niceness $CAMPAIGN_NICE (default 19). Where the kernel groups processes
+# for scheduling by setsid (autogroups, /proc/sys/kernel/sched_autogroup_enabled),
+# niceness ranks a process only within its group and the groups share the
+# cores equally; a campaign started by setsid (`setsid scripts/table1_campaign.sh`,
+# a group of its own) gives its group the same niceness, so that it yields the
+# cores to interactive work. Started otherwise, it leaves alone the group it
+# shares with whatever started it.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${GRANULAR_BIN:-$here/build/granular}"
 niceness="${CAMPAIGN_NICE:-19}"  # yields the cores to interactive work
 jobs="$1"; lanes="${2:-2}"
+if [ "$(ps -o sid= -p $$ | tr -d ' ')" = "$$" ]; then
+  echo "$niceness" >/proc/self/autogroup 2>/dev/null || :
+fi
 run_one() {
   out="$1"; shift; scene="$1"; shift
   [ -e "$out.done" ] && exit 0
   mkdir -p "$(dirname "$out")"
   mode=--force
   [ -e "$out" ] && [ -e "$out.ckpt" ] && mode=--resume
-  if setsid -w bash -c 'echo "$0" >/proc/self/autogroup 2>/dev/null || :; exec nice -n "$0" "$@"' \
-      "$niceness" "$bin" run "$scene" -o "$out" $mode --threads 1 -q "$@" >>"${out%.h5}.log" 2>&1; then
+  if nice -n "$niceness" "$bin" run "$scene" -o "$out" $mode --threads 1 -q "$@" >>"${out%.h5}.log" 2>&1; then
     touch "$out.done"
   else
     echo "failed: $out (see ${out%.h5}.log)" >&2
