@@ -481,6 +481,23 @@ int run_particles_scene(const Loaded& l, const std::string& scene_path, std::str
   return 0;
 }
 
+// A drum or box run's checkpoints (OUT.h5.ckpt at the options' cadence,
+// resumed from `saved` if given) and the metadata they carry
+// (engine/run_control.hpp).
+RunControl run_control(const Loaded& l, const RunOptions& o, const std::string& out_path,
+                       const CheckpointData* saved) {
+  RunControl ctl;
+  ctl.checkpoint = checkpoint_path(out_path);
+  ctl.every_seconds = 60.0 * o.checkpoint_minutes;
+  ctl.every_steps = o.checkpoint_steps;
+  ctl.resume = saved;
+  ctl.meta.scene_json = l.json;
+  ctl.meta.engine_version = kVersion;
+  ctl.meta.threads = omp_get_max_threads();
+  ctl.meta.seed = static_cast<std::int64_t>(l.drum ? l.drum->seed : l.box->seed);
+  return ctl;
+}
+
 // A drum run on the GPU engine (docs/gpu.md): one scene, or with --replicas K
 // its seeds particles.seed + k, k < K, side by side in one stepper, each
 // replica writing its own output (replica_output) and checkpoint.
@@ -534,16 +551,7 @@ int run_gpu_drum(const Loaded& l, const std::string& scene_path, std::string out
     out.attr("omega", s.omega);
     out.attr("rotation_period", s.rotation_period());
     out.group_attr("frames", "species_names", {"small", "big"});
-    RunControl ctl;
-    ctl.checkpoint = checkpoint_path(outs[k]);
-    ctl.every_seconds = 60.0 * o.checkpoint_minutes;
-    ctl.every_steps = o.checkpoint_steps;
-    ctl.resume = saved[k] ? &*saved[k] : nullptr;
-    ctl.meta.scene_json = scenes[k].json;
-    ctl.meta.engine_version = kVersion;
-    ctl.meta.threads = omp_get_max_threads();
-    ctl.meta.seed = static_cast<std::int64_t>(scenes[k].drum->seed);
-    members.push_back({&sims[k], &out, ctl});
+    members.push_back({&sims[k], &out, run_control(scenes[k], o, outs[k], saved[k] ? &*saved[k] : nullptr)});
     ptrs.push_back(&sims[k]);
   }
   std::fprintf(stderr, "granular %s: drum %s (%s), %zu particles, %.4g rotations, device %s", kVersion,
@@ -594,15 +602,7 @@ int run_gpu_box(const Loaded& l, const std::string& scene_path, std::string out_
     std::filesystem::remove(ckpt_path);  // a checkpoint of an earlier run into this output
   }
   install_stop_handlers();
-  RunControl ctl;
-  ctl.checkpoint = ckpt_path;
-  ctl.every_seconds = 60.0 * o.checkpoint_minutes;
-  ctl.every_steps = o.checkpoint_steps;
-  ctl.resume = saved ? &*saved : nullptr;
-  ctl.meta.scene_json = l.json;
-  ctl.meta.engine_version = kVersion;
-  ctl.meta.threads = omp_get_max_threads();
-  ctl.meta.seed = static_cast<std::int64_t>(l.box->seed);
+  RunControl ctl = run_control(l, o, out_path, saved ? &*saved : nullptr);
   const BoxScene& s = *l.box;
   BoxSim sim = make_box(s);
   const auto n = std::visit([](auto& v) { return v.p.size(); }, sim);
@@ -639,15 +639,7 @@ int run_scene(const Loaded& l, const std::string& scene_path, std::string out_pa
     std::filesystem::remove(ckpt_path);  // a checkpoint of an earlier run into this output
   }
   install_stop_handlers();
-  RunControl ctl;
-  ctl.checkpoint = ckpt_path;
-  ctl.every_seconds = 60.0 * o.checkpoint_minutes;
-  ctl.every_steps = o.checkpoint_steps;
-  ctl.resume = saved ? &*saved : nullptr;
-  ctl.meta.scene_json = l.json;
-  ctl.meta.engine_version = kVersion;
-  ctl.meta.threads = omp_get_max_threads();
-  ctl.meta.seed = l.drum ? static_cast<std::int64_t>(l.drum->seed) : static_cast<std::int64_t>(l.box->seed);
+  RunControl ctl = run_control(l, o, out_path, saved ? &*saved : nullptr);
   const RowCounts* rows = saved ? &saved->rows : nullptr;
   const bool progress = !o.quiet && isatty(fileno(stderr));
   RunReport r;
