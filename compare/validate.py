@@ -556,9 +556,10 @@ def run_timed(cmd, timeout):
 # ---------------------------------------------------------------- the native rows on the GPU engine
 
 # The scene kinds whose native runs go to the GPU engine as replicas: the
-# drum's. The GPU engine steps one shaken box per process (docs/gpu.md), and a
-# box of about a thousand grains runs faster on one core than alone on a GPU.
-REPLICA_KINDS = ("drum",)
+# drum's and the shaken box's. A box of about a thousand grains alone is too
+# small to keep a GPU busy; its replicas make it worth one: one process for a
+# row's packings (docs/gpu.md).
+REPLICA_KINDS = ("drum", "box")
 # The most seeds in one GPU process: 64 copies of #A need about 0.2 GiB.
 MAX_REPLICAS = 64
 
@@ -642,8 +643,9 @@ def run_batch(batch, device, log=print):
 
 def run_all(jobs, lanes=2, log=print, device="cpu"):
     """Runs (or finds in the cache) every job; returns their metadata dicts in
-    the jobs' order. With device gpu or gpu-host, the native drum runs go to
-    the GPU engine as replica batches (replica_batches); the rest as usual."""
+    the jobs' order. With device gpu or gpu-host, the native drum and box runs
+    go to the GPU engine as replica batches (replica_batches); the rest as
+    usual."""
     done = [0]
     t0 = time.monotonic()
     batches = replica_batches(jobs, device)

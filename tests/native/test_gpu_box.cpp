@@ -13,6 +13,7 @@
 //   law, while the shaker moves the walls of particles or the smooth walls;
 // - the parts the GPU engine's run uses (gpu/box_run.hpp): a stepper made
 //   from a state and its list's reference positions continues bit for bit;
+//   replicas (seeds side by side in one stepper) give each seed's bits;
 //   a step beyond the move limit stops the stepper before the step is
 //   counted; the overlap screen against a brute-force search; the driver's
 //   health check stops with the CPU engine's message.
@@ -333,7 +334,58 @@ TEST(GpuBox, ResumesFromTheListsReferencePositionsBitForBit) {
     EXPECT_EQ(whole->time(), resumed->time());
     EXPECT_EQ(resumed->step_count(), 300);
   }
-  EXPECT_THROW(gpu::make_host_box(std::vector<gpu::BoxModel>(2)), std::invalid_argument);
+}
+
+// Replicas: three seeds of one scene side by side in one stepper give, each,
+// the bits of a stepper of that seed alone (its own list, rebuilt when its
+// own particles have moved far enough, in its own cells; the one shaker
+// pose a step), Gear's scaled derivatives and the list's reference positions
+// included: walls of particles with Gear, and smooth walls with the leapfrog
+// and no big disk (then the replicas' widest grains, which size their cells,
+// differ). Replicas that do not share the integrator's dt, the walls or the
+// shaker are refused.
+TEST(GpuBox, ReplicasGiveEachSeedsBits) {
+  struct Kind {
+    const char *integrator, *walls, *big;
+  };
+  for (const Kind& c : {Kind{"gear", "particles", "true"}, Kind{"leapfrog", "smooth", "false"}}) {
+    std::vector<gpu::BoxModel> models;
+    for (int k = 0; k < 3; ++k) {
+      BoxScene s = box_scene({"box.width=12", "box.wall_height=14", "particles.count=30", "big.radius=2",
+                              "big.gap=1", "run.settle=0.02", "shaking.startup_cycles=0",
+                              std::string("integrator.kind=") + c.integrator, std::string("box.walls=") + c.walls,
+                              std::string("big.enabled=") + c.big});
+      s.seed += static_cast<std::uint64_t>(k);
+      models.push_back(gpu::box_model(make_box(s)));
+    }
+    EXPECT_FALSE(models[0].p.x == models[1].p.x) << c.walls;
+    const auto together = gpu::make_host_box(models);
+    EXPECT_EQ(together->replicas(), 3);
+    together->advance(250);
+    together->advance(150);
+    EXPECT_EQ(together->step_count(), 400);
+    for (int k = 0; k < 3; ++k) {
+      const auto alone = gpu::make_host_box(models[k]);
+      alone->advance(400);
+      ParticleStore<2> a = models[k].p, b = models[k].p;
+      alone->download(a);
+      together->download(b, k);
+      EXPECT_FALSE(a.x == models[k].p.x);
+      EXPECT_TRUE(a.x == b.x && a.v == b.v && a.w == b.w && a.f == b.f && a.tq == b.tq && a.aux_v == b.aux_v &&
+                  a.aux_a == b.aux_a)
+          << c.walls << " replica " << k;
+      EXPECT_TRUE(alone->reference_positions() == together->reference_positions(k)) << c.walls << " replica " << k;
+      EXPECT_EQ(alone->time(), together->time());
+    }
+    std::vector<gpu::BoxModel> other = models;
+    other[1].dt *= 0.5;
+    EXPECT_THROW(gpu::make_host_box(other), std::invalid_argument);
+    other = models;
+    other[2].shaker.amplitude *= 2.0;
+    other[2].flat.shaker.amplitude *= 2.0;
+    EXPECT_THROW(gpu::make_host_box(other), std::invalid_argument);
+  }
+  EXPECT_THROW(gpu::make_host_box(std::vector<gpu::BoxModel>{}), std::invalid_argument);
 }
 
 // A step that moves a particle further than max_step_move stops the stepper

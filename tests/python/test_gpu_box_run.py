@@ -4,8 +4,9 @@ box's GPU kernels built by the host compiler (docs/gpu.md). It writes the
 CPU engine's output schema and follows the CPU engine to rounding, with
 walls of particles or smooth walls and either integrator; a resumed run
 repeats the uninterrupted one bit for bit; an unstable run stops with the
-CPU engine's message; replicas of a box are refused; `granular bench` times
-the box's stepper."""
+CPU engine's message; replica k of `--replicas K` is, bit for bit, the
+single run with seed + k, and resumes bit for bit; `granular bench` times
+the box's stepper, replicas too."""
 import json
 import subprocess
 from pathlib import Path
@@ -135,16 +136,62 @@ def test_unstable_box_stops_with_the_cpu_message(tmp_path):
     assert errors["gpu-host"] == errors["cpu"]
 
 
-@pytest.mark.parametrize("device", ["gpu", "gpu-host"])
-def test_box_replicas_are_refused(tmp_path, device):
-    """A box stepper holds one box: --replicas 2 is refused with one line,
-    before anything is written."""
-    r = run(BOX, "-o", tmp_path / "out.h5", "--device", device, "--replicas", 2)
+def seed_of(sets):
+    """The scene's particles.seed with these --set options (the default: 1)."""
+    for x in sets:
+        if x.startswith("particles.seed="):
+            return int(x.split("=", 1)[1])
+    import tomllib
+    with open(BOX, "rb") as f:
+        return tomllib.load(f).get("particles", {}).get("seed", 1)
+
+
+@pytest.mark.parametrize("model", sorted(MODELS))
+def test_box_replicas_are_the_single_runs_bitwise(tmp_path, model):
+    """--replicas 3 writes OUT_r00.h5 .. OUT_r02.h5; replica k's datasets are
+    the single run's with particles.seed = seed + k, bit for bit: the
+    replicas share the stepper's kernels, each its own list and cells."""
+    sets = SETS + MODELS[model]
+    seed = seed_of(sets)
+    r = run(BOX, "-o", tmp_path / "rep.h5", "--device", "gpu-host", "--replicas", 3, sets=sets)
+    assert r.returncode == 0, r.stderr
+    assert f"3 replicas (particles.seed {seed} to {seed + 2})" in r.stderr
+    assert sorted(p.name for p in tmp_path.glob("rep*.h5")) == ["rep_r00.h5", "rep_r01.h5", "rep_r02.h5"]
+    firsts = []
+    for k in range(3):
+        single = tmp_path / f"single{k}.h5"
+        r = run(BOX, "-o", single, "--device", "gpu-host", sets=sets + [f"particles.seed={seed + k}"])
+        assert r.returncode == 0, r.stderr
+        assert_bitwise_equal(single, tmp_path / f"rep_r{k:02d}.h5")
+        firsts.append(datasets(single)["frames/position"][-1])
+    assert not np.array_equal(firsts[0], firsts[1])  # other seeds, other packings
+
+
+def test_box_replicas_resume_bitwise(tmp_path):
+    """Replicas stopped at step 267 with their checkpoints, then --resume with
+    the same K: each replica's datasets are the uninterrupted replicas', bit
+    for bit."""
+    sets = SETS + MODELS["smooth_leapfrog"]
+    r = run(BOX, "-o", tmp_path / "whole.h5", "--device", "gpu-host", "--replicas", 2, sets=sets)
+    assert r.returncode == 0, r.stderr
+    first = [s if not s.startswith("run.duration") else "run.duration=0.0334" for s in sets]
+    r = run(BOX, "-o", tmp_path / "parts.h5", "--device", "gpu-host", "--replicas", 2, "--checkpoint-steps", 100,
+            sets=first)
+    assert r.returncode == 0, r.stderr
+    for k in range(2):
+        assert (tmp_path / f"parts_r{k:02d}.h5.ckpt").exists()
+    r = run(BOX, "-o", tmp_path / "parts.h5", "--device", "gpu-host", "--replicas", 2, "--resume", sets=sets)
+    assert r.returncode == 0, r.stderr
+    assert "resuming from step 267" in r.stderr
+    for k in range(2):
+        assert_bitwise_equal(tmp_path / f"whole_r{k:02d}.h5", tmp_path / f"parts_r{k:02d}.h5")
+
+
+def test_box_replicas_on_the_cpu_are_refused(tmp_path):
+    r = run(BOX, "-o", tmp_path / "out.h5", "--device", "cpu", "--replicas", 2)
     assert r.returncode == 2, r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: "), r.stderr
-    if device == "gpu-host":
-        assert "runs one shaken box at a time" in lines[0], lines[0]
+    assert len(lines) == 1 and "replicas run on the GPU engine only" in lines[0], r.stderr
     assert list(tmp_path.iterdir()) == []
 
 
@@ -160,3 +207,7 @@ def test_bench_gpu_host_times_the_box():
     assert res["steps"] == 50 and res["particles"] > 31
     assert res["particle_steps_per_second"] > 0 and len(res["rates"]) == 2
     assert res["neighbor_builds"] >= 0
+    r = subprocess.run(c + ["--replicas", "3"], capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    (rep,) = json.loads(r.stdout)
+    assert rep["replicas"] == 3 and rep["particles"] == 3 * res["particles"]

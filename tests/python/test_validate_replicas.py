@@ -1,5 +1,5 @@
-"""The native drum rows on the GPU engine (compare validate --device): a row's
-seeds run as replicas of one process, replica k filed as seed first+k, which
+"""The native drum and box rows on the GPU engine (compare validate --device):
+a row's seeds run as replicas of one process, replica k filed as seed first+k, which
 is the run of that seed alone on the same device; a second pass finds every
 run in the cache. Checked with the GPU engine's host build (gpu-host), which
 this machine has whether or not it has a GPU."""
@@ -57,3 +57,29 @@ def test_auto_is_the_cpu_without_a_visible_gpu():
     expect = "gpu" if json.loads(r.stdout)["gpu"]["available"] else "cpu"
     assert native_device("auto") == expect
     assert native_device("gpu-host") == "gpu-host"
+
+
+@pytest.fixture
+def tiny_boxes(monkeypatch):
+    case = Case("tinyboxrep", "box", "scenes/box/f3.0_big.toml",
+                ["box.width=12", "box.wall_height=14", "particles.count=30", "big.radius=2", "big.gap=1",
+                 "run.settle=0.02", "shaking.startup_cycles=0", "run.duration=0.02"],
+                [1, 2], ["native-leapfrog", "lammps"], frequencies=[3.0], timeout=120)
+    monkeypatch.setitem(SUITES, "tinyboxrep", [case])
+    return "tinyboxrep"
+
+
+def test_box_replica_k_is_its_seed_run_alone(tiny_boxes, tmp_path):
+    """A box row's seeds share one GPU engine process too (replica k filed as
+    seed first + k, the run of that seed alone on the same device)."""
+    jobs = [j for j in jobs_of(tiny_boxes, tmp_path) if j.engine == "native"]
+    assert [[j.seed for j in b] for b in replica_batches(jobs, "gpu-host")] == [[1, 2]]
+    log = []
+    metas = run_all(jobs, lanes=1, log=log.append, device="gpu-host")
+    assert [m["returncode"] for m in metas] == [0, 0], log
+    assert [(m["replicas"], m["replica"]) for m in metas] == [(2, 0), (2, 1)]
+    alone = tmp_path / "alone.h5"
+    subprocess.run(jobs[1].command(alone) + ["--device", "gpu-host"], check=True, capture_output=True)
+    with h5py.File(jobs[1].path) as a, h5py.File(alone) as b, h5py.File(jobs[0].path) as other:
+        assert np.array_equal(a["frames/position"][()], b["frames/position"][()])
+        assert not np.array_equal(a["frames/position"][()], other["frames/position"][()])

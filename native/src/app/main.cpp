@@ -292,8 +292,7 @@ struct RunOptions {
 // device for checking the GPU engine without a GPU). Refused, with the
 // reason, before anything is written: a scene the GPU engine does not run
 // (gpu/stepper_driver.hpp, unsupported_scene), --device gpu in a build without
-// CUDA or without a visible CUDA device, --replicas on the CPU, more than one
-// replica of a shaken box (its stepper holds one box).
+// CUDA or without a visible CUDA device, --replicas on the CPU.
 void check_device(const std::string& device, int replicas, const Loaded& l) {
   if (device == "cpu") {
     if (replicas > 0) throw UsageError("--replicas: replicas run on the GPU engine only (--device gpu or gpu-host)");
@@ -301,9 +300,6 @@ void check_device(const std::string& device, int replicas, const Loaded& l) {
   }
   const std::string why = gpu::unsupported_scene(l.kind);
   if (!why.empty()) throw UsageError("--device " + device + ": " + why + "; run it with --device cpu");
-  if (l.box && replicas > 1)
-    throw UsageError("--replicas " + std::to_string(replicas) +
-                     ": the GPU engine runs one shaken box at a time (docs/gpu.md); run each particles.seed on its own");
   if (device != "gpu") return;
 #if defined(GRANULAR_HAVE_CUDA)
   const std::string none = gpu::cuda_unavailable();
@@ -362,25 +358,39 @@ gpu::BoxStepperFactory box_stepper_factory(const std::string& device) {
 
 // Before a CUDA run: the device memory the replicas need (gpu/drum_gpu.hpp,
 // device_bytes) against the device's free memory; refused if it does not fit.
-void check_device_memory(const std::string& device, const DrumSim& sim, int replicas) {
+// n: the particles of one replica (the first).
+void check_device_bytes(const std::string& device, const gpu::DeviceSizing& z, int replicas, std::size_t n) {
 #if defined(GRANULAR_HAVE_CUDA)
   if (device != "gpu") return;
-  const gpu::DrumModel m = gpu::drum_model(sim);
-  const double need = static_cast<double>(gpu::device_bytes(gpu::drum_sizing(m, replicas)));
+  const double need = static_cast<double>(gpu::device_bytes(z));
   const double free = static_cast<double>(gpu::cuda_free_bytes());
   if (need > free) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
                   "--device gpu: the run needs about %.2f GiB of GPU memory (%d replica(s) of %zu particles), the GPU "
                   "has %.2f GiB free; run fewer replicas or a smaller scene",
-                  need / 1073741824.0, replicas, m.p.size(), free / 1073741824.0);
+                  need / 1073741824.0, replicas, n, free / 1073741824.0);
     throw UsageError(buf);
   }
 #else
   (void)device;
-  (void)sim;
+  (void)z;
   (void)replicas;
+  (void)n;
 #endif
+}
+
+// The same for replicas of a drum like sim.
+void check_device_memory(const std::string& device, const DrumSim& sim, int replicas) {
+  if (device != "gpu") return;
+  const gpu::DrumModel m = gpu::drum_model(sim);
+  check_device_bytes(device, gpu::drum_sizing(m, replicas), replicas, m.p.size());
+}
+
+// The same for the boxes of models (one a replica).
+void check_device_memory(const std::string& device, const std::vector<gpu::BoxModel>& models) {
+  if (device != "gpu" || models.empty()) return;
+  check_device_bytes(device, gpu::box_sizing(models), static_cast<int>(models.size()), models.front().p.size());
 }
 
 // Replica k's output: OUT's stem + "_r" + k (two digits, more where K > 100) + OUT's extension.
@@ -498,44 +508,70 @@ RunControl run_control(const Loaded& l, const RunOptions& o, const std::string& 
   return ctl;
 }
 
+// The members of a run on the GPU engine (docs/gpu.md): one scene, or with
+// --replicas K its seeds particles.seed + k, k < K (seed: the scene's), each
+// replica with its own output (replica_output) and checkpoint; the
+// checkpoints to resume from (all of one step), or the outputs checked free.
+struct GpuMembers {
+  int replicas = 1;
+  std::vector<Loaded> scenes;
+  std::vector<std::string> outs;
+  std::vector<std::optional<CheckpointData>> saved;
+};
+
+GpuMembers gpu_members(const Loaded& l, const std::string& scene_path, const std::string& out_path,
+                       const RunOptions& o, std::uint64_t seed) {
+  GpuMembers g;
+  g.replicas = std::max(1, o.replicas);
+  for (int k = 0; k < g.replicas; ++k) {
+    if (o.replicas > 0) {
+      std::vector<std::string> sets = o.sets;
+      sets.push_back("particles.seed=" + std::to_string(seed + static_cast<std::uint64_t>(k)));
+      g.scenes.push_back(load(scene_path, sets));
+      g.outs.push_back(replica_output(out_path, k, g.replicas));
+    } else {
+      g.scenes.push_back(l);
+      g.outs.push_back(out_path);
+    }
+  }
+  g.saved.resize(g.replicas);
+  for (int k = 0; k < g.replicas; ++k) {
+    const std::string ckpt_path = checkpoint_path(g.outs[k]);
+    if (o.resume) {
+      g.saved[k] = checkpoint_to_resume(g.outs[k], g.scenes[k].json, true);
+      if (g.saved[k]->step != g.saved[0]->step)
+        throw UsageError(ckpt_path + ": the replicas' checkpoints are of different steps (" +
+                         std::to_string(g.saved[k]->step) + " and " + std::to_string(g.saved[0]->step) + ")");
+    } else {
+      check_output(g.outs[k], o.force);
+    }
+  }
+  return g;
+}
+
+// After the members are made: a new run removes the checkpoints of earlier
+// runs into its outputs; then SIGINT and SIGTERM checkpoint and stop.
+void begin_gpu_run(const GpuMembers& g, const RunOptions& o) {
+  if (!o.resume)
+    for (const std::string& out : g.outs) std::filesystem::remove(checkpoint_path(out));  // an earlier run's
+  install_stop_handlers();
+}
+
 // A drum run on the GPU engine (docs/gpu.md): one scene, or with --replicas K
 // its seeds particles.seed + k, k < K, side by side in one stepper, each
 // replica writing its own output (replica_output) and checkpoint.
 int run_gpu_drum(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
   if (out_path.empty()) out_path = l.name() + ".h5";
-  const int replicas = std::max(1, o.replicas);
-  std::vector<Loaded> scenes;
-  std::vector<std::string> outs;
-  for (int k = 0; k < replicas; ++k) {
-    if (o.replicas > 0) {
-      std::vector<std::string> sets = o.sets;
-      sets.push_back("particles.seed=" + std::to_string(l.drum->seed + static_cast<std::uint64_t>(k)));
-      scenes.push_back(load(scene_path, sets));
-      outs.push_back(replica_output(out_path, k, replicas));
-    } else {
-      scenes.push_back(l);
-      outs.push_back(out_path);
-    }
-  }
-  std::vector<std::optional<CheckpointData>> saved(replicas);
-  for (int k = 0; k < replicas; ++k) {
-    const std::string ckpt_path = checkpoint_path(outs[k]);
-    if (o.resume) {
-      saved[k] = checkpoint_to_resume(outs[k], scenes[k].json, true);
-      if (saved[k]->step != saved[0]->step)
-        throw UsageError(ckpt_path + ": the replicas' checkpoints are of different steps (" +
-                         std::to_string(saved[k]->step) + " and " + std::to_string(saved[0]->step) + ")");
-    } else {
-      check_output(outs[k], o.force);
-    }
-  }
+  const GpuMembers g = gpu_members(l, scene_path, out_path, o, l.drum->seed);
+  const int replicas = g.replicas;
+  const std::vector<Loaded>& scenes = g.scenes;
+  const std::vector<std::string>& outs = g.outs;
+  const auto& saved = g.saved;
   std::vector<DrumSim> sims;
   sims.reserve(replicas);
   for (int k = 0; k < replicas; ++k) sims.push_back(make_drum(*scenes[k].drum));
   check_device_memory(o.device, sims.front(), replicas);
-  if (!o.resume)
-    for (const std::string& out : outs) std::filesystem::remove(checkpoint_path(out));  // an earlier run's
-  install_stop_handlers();
+  begin_gpu_run(g, o);
   const DrumScene& s = *l.drum;
   std::vector<std::unique_ptr<H5Output>> files;
   std::vector<DrumMember> members;
@@ -588,32 +624,49 @@ std::unique_ptr<H5Output> open_box_output(const Loaded& l, const std::string& sc
 }
 
 // A shaken-box run on the GPU engine (docs/gpu.md): the CPU engine's run
-// loop, output and checkpoints, stepped by the box's GPU stepper. One box:
-// --replicas 1 names the output as a drum's replica 0 (OUT_r00.h5).
+// loop, output and checkpoints, stepped by the box's GPU stepper; one scene,
+// or with --replicas K its seeds particles.seed + k, k < K, side by side in
+// one stepper, each replica writing its own output (replica_output) and
+// checkpoint, as a drum's.
 int run_gpu_box(const Loaded& l, const std::string& scene_path, std::string out_path, const RunOptions& o) {
   if (out_path.empty()) out_path = l.name() + ".h5";
-  if (o.replicas > 0) out_path = replica_output(out_path, 0, 1);
-  const std::string ckpt_path = checkpoint_path(out_path);
-  std::optional<CheckpointData> saved;
-  if (o.resume) {
-    saved = checkpoint_to_resume(out_path, l.json, true);
-  } else {
-    check_output(out_path, o.force);
-    std::filesystem::remove(ckpt_path);  // a checkpoint of an earlier run into this output
+  const GpuMembers g = gpu_members(l, scene_path, out_path, o, l.box->seed);
+  const int replicas = g.replicas;
+  std::vector<BoxSim> sims;
+  sims.reserve(replicas);
+  for (int k = 0; k < replicas; ++k) sims.push_back(make_box(*g.scenes[k].box));
+  if (o.device == "gpu") {
+    std::vector<gpu::BoxModel> models;
+    for (const BoxSim& sim : sims) models.push_back(gpu::box_model(sim));
+    check_device_memory(o.device, models);
   }
-  install_stop_handlers();
-  RunControl ctl = run_control(l, o, out_path, saved ? &*saved : nullptr);
+  begin_gpu_run(g, o);
   const BoxScene& s = *l.box;
-  BoxSim sim = make_box(s);
-  const auto n = std::visit([](auto& v) { return v.p.size(); }, sim);
-  const auto out = open_box_output(l, scene_path, out_path, n, saved ? &saved->rows : nullptr);
-  std::fprintf(stderr, "granular %s: shaken box %s (%s), %zu particles, %.3g s settling + %.4g s shaking, device %s -> %s\n",
-               kVersion, s.name.c_str(), scene_path.c_str(), n, s.settle, s.duration, o.device.c_str(),
-               out_path.c_str());
-  if (saved)
-    std::fprintf(stderr, "resuming from step %lld (t = %.6g s)\n", static_cast<long long>(saved->step), saved->time);
-  const auto driver = gpu::make_box_driver(s, sim, box_stepper_factory(o.device));
-  const RunReport r = run_box(s, sim, out.get(), !o.quiet && isatty(fileno(stderr)), ctl, *driver);
+  std::vector<std::unique_ptr<H5Output>> files;
+  std::vector<BoxMember> members;
+  std::vector<BoxSim*> ptrs;
+  std::size_t n = 0;
+  for (int k = 0; k < replicas; ++k) {
+    const auto nk = std::visit([](auto& v) { return v.p.size(); }, sims[k]);
+    n += nk;
+    const auto& saved = g.saved[k];
+    files.push_back(open_box_output(g.scenes[k], scene_path, g.outs[k], nk, saved ? &saved->rows : nullptr));
+    members.push_back({&sims[k], files.back().get(), run_control(g.scenes[k], o, g.outs[k], saved ? &*saved : nullptr)});
+    ptrs.push_back(&sims[k]);
+  }
+  std::fprintf(stderr, "granular %s: shaken box %s (%s), %zu particles, %.3g s settling + %.4g s shaking, device %s",
+               kVersion, s.name.c_str(), scene_path.c_str(), n, s.settle, s.duration, o.device.c_str());
+  if (o.replicas > 0)
+    std::fprintf(stderr, ", %d replicas (particles.seed %llu to %llu) -> %s ... %s\n", replicas,
+                 static_cast<unsigned long long>(s.seed), static_cast<unsigned long long>(s.seed + replicas - 1),
+                 g.outs.front().c_str(), g.outs.back().c_str());
+  else
+    std::fprintf(stderr, " -> %s\n", out_path.c_str());
+  if (g.saved[0])
+    std::fprintf(stderr, "resuming from step %lld (t = %.6g s)\n", static_cast<long long>(g.saved[0]->step),
+                 g.saved[0]->time);
+  const auto driver = gpu::make_box_driver(s, ptrs, box_stepper_factory(o.device), g.outs);
+  const RunReport r = run_boxes(s, members, *driver, !o.quiet && isatty(fileno(stderr)));
   std::fprintf(stderr, "done: %ld steps in %.1f s, %.3g particle-steps/s\n", r.steps, r.seconds,
                r.particle_steps_per_second);
   return 0;
@@ -868,8 +921,8 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
   return 0;
 }
 
-// The GPU engine's stepper for `granular bench`: K seeds of a drum scene
-// (particles.seed + k) or one shaken box, as a run starts them, with the
+// The GPU engine's stepper for `granular bench`: K seeds of a drum or
+// shaken-box scene (particles.seed + k), as a run starts them, with the
 // steps of `settle` and of `length` (rotations of a drum, seconds of a box).
 struct GpuBenchStepper {
   std::unique_ptr<gpu::DrumStepper> drum;
@@ -885,10 +938,15 @@ GpuBenchStepper gpu_bench_stepper(const Loaded& l, const std::string& device, in
   GpuBenchStepper b;
   if (l.box) {
     const BoxScene& s = *l.box;
-    const BoxSim sim = make_box(s);
-    const std::vector<gpu::BoxModel> models{gpu::box_model(sim)};
+    std::vector<gpu::BoxModel> models;
+    for (int k = 0; k < replicas; ++k) {
+      BoxScene sk = s;
+      sk.seed = s.seed + static_cast<std::uint64_t>(k);
+      models.push_back(gpu::box_model(make_box(sk)));
+    }
+    check_device_memory(device, models);
     b.box = box_stepper_factory(device)(models);
-    b.particles = static_cast<long>(models.front().p.size());
+    for (const auto& m : models) b.particles += static_cast<long>(m.p.size());
     b.settle_steps = std::lround((settle < 0 ? 1.0 : settle) / s.dt);
     b.steps = std::max(1L, std::lround(length / s.dt));
     return b;
@@ -910,7 +968,7 @@ GpuBenchStepper gpu_bench_stepper(const Loaded& l, const std::string& device, in
 }
 
 // granular bench --device gpu|gpu-host: the GPU engine's stepper on K seeds
-// of a drum scene (particles.seed + k) or on a shaken box, settled `settle`
+// of a drum or shaken-box scene (particles.seed + k), settled `settle`
 // rotations or seconds on the device, then `rounds` stretches of `length`
 // rotations or seconds timed one after another; the median stretch is
 // reported in the CPU bench's fields.

@@ -8,6 +8,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
+#include <stdexcept>
 #include <sstream>
 #include <type_traits>
 
@@ -118,96 +120,147 @@ HealthLimits box_health(const BoxScene& s) {
   return h;
 }
 
-// The run loop, the state stepped by its simulation (driver null) or by a
-// driver, which is asked for the state where the loop observes, checks or
-// checkpoints.
+// The run loop of one box (driver null: stepped by its simulation) or of
+// several stepped by a driver (replicas: one scene, other seeds), all on the
+// first member's schedule: the members share the time, so their frames and
+// trace rows fall at the same steps. The driver is asked for a member's state
+// where the loop observes, checks or checkpoints it.
 template <class Sim>
-RunReport run_impl(const BoxScene& s, Sim& sim, H5Output* out, bool progress, const RunControl& ctl,
-                   RunDriver* driver) {
+RunReport run_impl(const BoxScene& s, std::vector<BoxMember>& ms, RunDriver* driver, bool progress) {
+  const std::size_t members = ms.size();
+  std::vector<Sim*> sims;
+  for (BoxMember& m : ms) {
+    if (!std::holds_alternative<Sim>(*m.sim)) throw std::logic_error("run_boxes: the members' models differ");
+    sims.push_back(&std::get<Sim>(*m.sim));
+  }
+  Sim& sim = *sims.front();  // the schedule's
   const HealthLimits health = box_health(s);
-  health.apply(sim);
+  for (Sim* v : sims) health.apply(*v);
   const long total = std::lround((s.settle + s.duration) / s.dt);
   const long settle_steps = std::lround(s.settle / s.dt);
-  const bool has_big = big_index(sim) < sim.p.size();
-  int trace_h = -1, census_h = -1;
-  if (out && has_big)
-    trace_h = out->init_series("trace",
-                               {{"time", 1}, {"cycle", 1}, {"box_y", 1}, {"big_position", 2}, {"big_velocity", 2}});
-  if (out) census_h = init_census(*out, decltype(sim.law)::kSpecies);
-  long snap_k = 0, trace_k = 0;
-  auto observe = [&](bool force_frame) {
-    ScopedPhase ph(sim.timers, Phase::observe);
-    const double c = s.cycle(sim.time);
-    const bool shaking = sim.step_count > settle_steps;
+  struct Counters {
+    long snap_k = 0, trace_k = 0;
+    int trace_h = -1, census_h = -1;
+    bool has_big = false;
+  };
+  std::vector<Counters> cs(members);
+  for (std::size_t r = 0; r < members; ++r) {
+    H5Output* out = ms[r].out;
+    Counters& c = cs[r];
+    c.has_big = big_index(*sims[r]) < sims[r]->p.size();
+    if (out && c.has_big)
+      c.trace_h = out->init_series(
+          "trace", {{"time", 1}, {"cycle", 1}, {"box_y", 1}, {"big_position", 2}, {"big_velocity", 2}});
+    if (out) c.census_h = init_census(*out, decltype(sim.law)::kSpecies);
+  }
+  auto observe = [&](std::size_t r, bool force_frame) {
+    Sim& v = *sims[r];
+    H5Output* out = ms[r].out;
+    Counters& cr = cs[r];
+    ScopedPhase ph(v.timers, Phase::observe);
+    const double c = s.cycle(v.time);
+    const bool shaking = v.step_count > settle_steps;
     bool snap = force_frame, trace = false;
-    if (shaking && c >= (snap_k + 1) * s.snapshot_every_cycles) {
+    if (shaking && c >= (cr.snap_k + 1) * s.snapshot_every_cycles) {
       snap = true;
-      snap_k = static_cast<long>(std::floor(c / s.snapshot_every_cycles));
+      cr.snap_k = static_cast<long>(std::floor(c / s.snapshot_every_cycles));
     }
-    if (shaking && c * s.trace_per_cycle >= trace_k + 1) {
+    if (shaking && c * s.trace_per_cycle >= cr.trace_k + 1) {
       trace = true;
-      trace_k = static_cast<long>(std::floor(c * s.trace_per_cycle));
+      cr.trace_k = static_cast<long>(std::floor(c * s.trace_per_cycle));
     }
-    if (driver && (snap || trace)) driver->fetch(0);
-    if (snap || trace) check_contained(sim, s);
+    if (driver && (snap || trace)) driver->fetch(r);
+    if (snap || trace) check_contained(v, s);
     if (out && snap) {
-      out->frame(sim.time, sim.step_count, sim.p);
-      write_census(*out, census_h, sim.time, driver ? driver->census(0) : coulomb_census(sim));
+      out->frame(v.time, v.step_count, v.p);
+      write_census(*out, cr.census_h, v.time, driver ? driver->census(r) : coulomb_census(v));
     }
-    if (out && trace && has_big) {
-      const std::size_t b = big_index(sim);
-      out->series(trace_h, {{sim.time}, {c}, {shaker_of(sim).y(sim.time)},
-                   {sim.p.x[b].x(), sim.p.x[b].y()}, {sim.p.v[b].x(), sim.p.v[b].y()}});
+    if (out && trace && cr.has_big) {
+      const std::size_t b = big_index(v);
+      out->series(cr.trace_h, {{v.time}, {c}, {shaker_of(v).y(v.time)},
+                  {v.p.x[b].x(), v.p.x[b].y()}, {v.p.v[b].x(), v.p.v[b].y()}});
     }
   };
-  const long start = driver ? begin_run(sim, ctl, {&snap_k, &trace_k}, "shaken-box", [&] { observe(true); },
-                                        [&](const CheckpointData& c) { driver->restore(0, c); })
-                            : begin_run(sim, ctl, {&snap_k, &trace_k}, "shaken-box", [&] { observe(true); });
+  long start = 0;
+  for (std::size_t r = 0; r < members; ++r) {
+    Sim& v = *sims[r];
+    auto first_output = [&] { observe(r, true); };
+    const long from = driver ? begin_run(v, ms[r].ctl, {&cs[r].snap_k, &cs[r].trace_k}, "shaken-box", first_output,
+                                         [&](const CheckpointData& c) { driver->restore(r, c); })
+                             : begin_run(v, ms[r].ctl, {&cs[r].snap_k, &cs[r].trace_k}, "shaken-box", first_output);
+    if (r == 0) start = from;
+    if (from != start)
+      throw std::runtime_error(ms[r].ctl.checkpoint + ": the members' checkpoints are of different steps");
+  }
   if (driver) driver->start();
-  Checkpointer checkpoints(ctl);
-  const auto t0 = start_loop(sim, out);
+  std::vector<Checkpointer> checkpoints;
+  for (const BoxMember& m : ms) checkpoints.emplace_back(m.ctl);
+  std::vector<H5Output*> outs;
+  std::chrono::steady_clock::time_point t0;
+  for (std::size_t r = 0; r < members; ++r) {
+    outs.push_back(ms[r].out);
+    t0 = start_loop(*sims[r], ms[r].out);
+  }
   auto last = t0;
-  const double n = static_cast<double>(sim.p.size());
+  long n = 0;
+  for (Sim* v : sims) n += static_cast<long>(v->p.size());
   // The steps between two that observe, check or report run in one go
   // (observe: a frame or a trace row due at the step's cycle).
   auto acts = [&](long k, double t) {
-    if (k % health.every == 0 || k == settle_steps || checkpoints.may_act_at(k) || (progress && k % 500 == 0))
+    const Counters& c0 = cs.front();
+    if (k % health.every == 0 || k == settle_steps || checkpoints.front().may_act_at(k) || (progress && k % 500 == 0))
       return true;
     if (k <= settle_steps) return false;
     const double c = s.cycle(t);
-    return c >= (snap_k + 1) * s.snapshot_every_cycles || c * s.trace_per_cycle >= trace_k + 1;
+    return c >= (c0.snap_k + 1) * s.snapshot_every_cycles || c * s.trace_per_cycle >= c0.trace_k + 1;
   };
-  // The XDMF description beside the output (io/xdmf.hpp) is rewritten after
+  // The XDMF description beside each output (io/xdmf.hpp) is rewritten after
   // each checkpoint and where the run ends: at its last step, on SIGINT or
   // SIGTERM (Interrupted), or when it stops unstable (UnstableError).
-  run_loop(out, progress, [&] {
+  run_loop(outs, progress, [&] {
     for (long k = start; k < total;) {
       const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
       advance_run(driver, sim, next - k);
       k = next;
       if (k % health.every == 0 || k == total) check_run_health(driver, health, [&] { check_box_health(sim, health); });
-      observe(k == settle_steps || k == total);
-      const long saved = checkpoints.written();
-      if (driver)
-        checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total,
-                               [&](CheckpointData& c) { driver->capture(0, c); });
-      else
-        checkpoints.after_step(sim, out, {snap_k, trace_k}, k == total);
-      if (out && checkpoints.written() != saved && k != total) out->write_xdmf();  // current with the checkpoint
+      for (std::size_t r = 0; r < members; ++r) observe(r, k == settle_steps || k == total);
+      // Every member checkpoints before a stop signal ends the run.
+      std::optional<Interrupted> stop;
+      for (std::size_t r = 0; r < members; ++r) {
+        const Sim& v = *sims[r];
+        H5Output* out = ms[r].out;
+        const long saved = checkpoints[r].written();
+        try {
+          if (driver)
+            checkpoints[r].after_step(v, out, {cs[r].snap_k, cs[r].trace_k}, k == total,
+                                      [&](CheckpointData& c) { driver->capture(r, c); });
+          else
+            checkpoints[r].after_step(v, out, {cs[r].snap_k, cs[r].trace_k}, k == total);
+        } catch (const Interrupted& e) {
+          if (!stop) stop = e;
+        }
+        if (out && checkpoints[r].written() != saved && k != total) out->write_xdmf();  // current with the checkpoint
+      }
+      if (stop) throw *stop;
       if (progress && (k % 500 == 0 || k == total)) {
         const auto now = std::chrono::steady_clock::now();
         if (now - last > std::chrono::milliseconds(500) || k == total) {
           last = now;
           const double el = std::chrono::duration<double>(now - t0).count();
           std::fprintf(stderr, "\r  t = %.2f / %.2f s (%s)   %.3g particle-steps/s   %.0f s left   ", sim.time,
-                       s.settle + s.duration, k <= settle_steps ? "settling" : "shaking", (k - start) * n / el,
-                       el / (k - start) * (total - k));
+                       s.settle + s.duration, k <= settle_steps ? "settling" : "shaking",
+                       (k - start) * static_cast<double>(n) / el, el / (k - start) * (total - k));
           std::fflush(stderr);
         }
       }
     }
   });
-  return run_report(sim, std::max(0L, total - start), t0, checkpoints.written());
+  long written = 0;
+  for (const Checkpointer& c : checkpoints) written += c.written();
+  RunReport r = run_report(sim, std::max(0L, total - start), t0, written);
+  r.particles = n;
+  r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(r.steps) * n / r.seconds : 0.0;
+  return r;
 }
 
 // The scene's choices, one at a time, down to one alternative of BoxSim.
@@ -242,12 +295,20 @@ BoxSim make_box(const BoxScene& s) {
 }
 
 RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, const RunControl& ctl) {
-  return std::visit([&](auto& v) { return run_impl(s, v, out, progress, ctl, nullptr); }, sim);
+  std::vector<BoxMember> ms{{&sim, out, ctl}};
+  return std::visit([&](auto& v) { return run_impl<std::decay_t<decltype(v)>>(s, ms, nullptr, progress); }, sim);
 }
 
 RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, const RunControl& ctl,
                   RunDriver& driver) {
-  return std::visit([&](auto& v) { return run_impl(s, v, out, progress, ctl, &driver); }, sim);
+  std::vector<BoxMember> ms{{&sim, out, ctl}};
+  return run_boxes(s, ms, driver, progress);
+}
+
+RunReport run_boxes(const BoxScene& s, std::vector<BoxMember>& members, RunDriver& driver, bool progress) {
+  if (members.empty()) throw std::logic_error("run_boxes: no member");
+  return std::visit([&](auto& v) { return run_impl<std::decay_t<decltype(v)>>(s, members, &driver, progress); },
+                    *members.front().sim);
 }
 
 BoxSim settle_box(const BoxScene& s, double settle) {

@@ -5,6 +5,7 @@
 #pragma once
 #include <sstream>
 #include <variant>
+#include <vector>
 
 #include "boundary/flat_box_walls.hpp"
 #include "contact/laws.hpp"
@@ -76,6 +77,18 @@ RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, 
 // scene's model and, once fetched, the state.
 RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, const RunControl& ctl,
                   RunDriver& driver);
+
+// One box of a run: its simulation, output (may be null) and checkpoints.
+struct BoxMember {
+  BoxSim* sim;
+  H5Output* out;
+  RunControl ctl;
+};
+
+// Runs every member (boxes of one scene, other seeds: one schedule of
+// output and checks; their simulations the same alternative) stepped by the
+// driver (member r is the driver's r), as run_box runs one.
+RunReport run_boxes(const BoxScene& s, std::vector<BoxMember>& members, RunDriver& driver, bool progress);
 
 // For `granular bench`: the box after `settle` seconds of settling (no
 // output), and `seconds` of shaking timed from that state (advancing it).

@@ -2,9 +2,9 @@
 // engine, gpu/stepper_driver.hpp): the CPU engine's run loop (engine/drum.cpp,
 // run_drums; engine/box.cpp, run_box) gives it the steps and asks it for the
 // state where the run observes, checks or checkpoints. The run's members are
-// simulations of one scene stepped side by side (a drum's replicas; a box
-// run has one member, r = 0); member r's simulation holds the scene's model
-// and, once fetched, the state.
+// simulations of one scene stepped side by side (a drum's or a box's
+// replicas; a single run has one member, r = 0); member r's simulation holds
+// the scene's model and, once fetched, the state.
 #pragma once
 #include <cstddef>
 

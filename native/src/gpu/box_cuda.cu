@@ -7,14 +7,12 @@
 
 namespace granular::gpu {
 
-std::unique_ptr<BoxStepper> make_cuda_box(const BoxModel& m) {
+std::unique_ptr<BoxStepper> make_cuda_box(const std::vector<BoxModel>& replicas) {
   const std::string why = cuda_unavailable();
   if (!why.empty()) throw std::runtime_error(why);
-  return cuda::make_box_stepper(m);
+  return cuda::make_box_stepper(replicas);
 }
 
-std::unique_ptr<BoxStepper> make_cuda_box(const std::vector<BoxModel>& models) {
-  return make_cuda_box(only_box(models));
-}
+std::unique_ptr<BoxStepper> make_cuda_box(const BoxModel& m) { return make_cuda_box(std::vector<BoxModel>{m}); }
 
 }  // namespace granular::gpu

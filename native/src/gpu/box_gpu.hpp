@@ -84,28 +84,32 @@ struct BoxModel {
   Column<Eigen::Vector2d> x_ref;
 };
 
-// Advances a BoxModel's state on one backend (gpu/stepper.hpp): n steps of
-// the model's integrator at a time, with Gear's aux columns downloaded where
-// the store has them. A BoxStepper holds one box (replica 0).
+// Advances the state of one or several BoxModels (replicas: boxes of one
+// scene with other seeds, side by side in the same arrays, each kernel
+// launched once for all) on one backend (gpu/stepper.hpp): n steps of the
+// models' integrator at a time, with Gear's aux columns downloaded where the
+// store has them. The replicas share the integrator, its dt, the walls, the
+// shaker and the domain (std::invalid_argument otherwise); their particle
+// counts may differ.
 using BoxStepper = Stepper<2>;
 
 // The kernels built by the host compiler, run as loops on the CPU (gpu/box_host.cpp).
 std::unique_ptr<BoxStepper> make_host_box(const BoxModel& m);
-// The same for a list of models as the GPU engine's driver passes it: one box
-// (a stepper runs no replicas of the box; std::invalid_argument otherwise).
-std::unique_ptr<BoxStepper> make_host_box(const std::vector<BoxModel>& models);
+std::unique_ptr<BoxStepper> make_host_box(const std::vector<BoxModel>& replicas);
 
 #if defined(GRANULAR_HAVE_CUDA)
 // The kernels built by nvcc, run on the first visible CUDA device
 // (gpu/box_cuda.cu; gpu/drum_gpu.hpp's cuda_unavailable says why not).
 std::unique_ptr<BoxStepper> make_cuda_box(const BoxModel& m);
-std::unique_ptr<BoxStepper> make_cuda_box(const std::vector<BoxModel>& models);
+std::unique_ptr<BoxStepper> make_cuda_box(const std::vector<BoxModel>& replicas);
 #endif
 
-// The one model of `models`, or std::invalid_argument (the box steppers hold one box).
-inline const BoxModel& only_box(const std::vector<BoxModel>& models) {
-  if (models.size() != 1) throw std::invalid_argument("GPU box: a stepper runs one box, not replicas");
-  return models.front();
-}
+// The device memory replicas of a box need, as gpu/drum_gpu.hpp's
+// device_bytes counts it (DeviceSizing; declared there): the particles and
+// each replica's cells, and list columns for the densest packing of the
+// smallest disks within reach, plus the box's own columns (the wall
+// particles' anchors, Gear's scaled derivatives).
+struct DeviceSizing;
+DeviceSizing box_sizing(const std::vector<BoxModel>& replicas);
 
 }  // namespace granular::gpu

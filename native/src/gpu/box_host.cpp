@@ -6,10 +6,10 @@
 
 namespace granular::gpu {
 
-std::unique_ptr<BoxStepper> make_host_box(const BoxModel& m) { return host::make_box_stepper(m); }
-
-std::unique_ptr<BoxStepper> make_host_box(const std::vector<BoxModel>& models) {
-  return make_host_box(only_box(models));
+std::unique_ptr<BoxStepper> make_host_box(const std::vector<BoxModel>& replicas) {
+  return host::make_box_stepper(replicas);
 }
+
+std::unique_ptr<BoxStepper> make_host_box(const BoxModel& m) { return make_host_box(std::vector<BoxModel>{m}); }
 
 }  // namespace granular::gpu

@@ -18,13 +18,14 @@
 //               displacement since the last list build, or +infinity where
 //               the step's move exceeds max_step_move or is not finite
 //               (Simulation's stability test: the stepper stops, StepUnstable)
-//   rebuild     if the largest displacement exceeds skin/2: the reference
-//               positions renewed, particles sorted by the cell of their
-//               reference position, each cell's range, then every particle
-//               lists every neighbour within range + skin of the reference
-//               positions (a full list, in the order of the cell stencil),
-//               no pair of two wall particles (gpu/neighbor_kernels.hpp, the
-//               drum's too)
+//   rebuild     for each replica whose largest displacement exceeds
+//               skin/2: its reference positions renewed; then particles
+//               sorted by the cell of their reference position (the cells
+//               keyed by replica), each cell's range, then every particle
+//               lists every neighbour of its replica within range + skin of
+//               the reference positions (a full list, in the order of the
+//               cell stencil), no pair of two wall particles
+//               (gpu/neighbor_kernels.hpp, the drum's too)
 //   forces      each particle: with smooth walls, the walls' contacts
 //               (flat_box_offsets, the walls at the end of the step); then
 //               its side of each listed pair in range through the law's
@@ -292,21 +293,46 @@ struct BoxWorstOverlap {
   }
 };
 
-// The stepper: the state of one box (gpu/kernel_stepper.hpp) and the step
-// above, for one integrator and one kind of walls.
+// Whether two shakers move the box alike (their anchors aside).
+inline bool same_shaking(const ShakerMotion<2>& a, const ShakerMotion<2>& b) {
+  return a.amplitude == b.amplitude && a.f0 == b.f0 && a.f1 == b.f1 && a.start == b.start &&
+         a.ramp_start == b.ramp_start && a.ramp_time == b.ramp_time && a.startup_cycles == b.startup_cycles;
+}
+
+// Whether two boxes' smooth walls are alike.
+inline bool same_flat_walls(const FlatBoxWalls& a, const FlatBoxWalls& b) {
+  return a.half_width == b.half_width && a.wall_radius == b.wall_radius && a.wall_inv_mass == b.wall_inv_mass &&
+         a.side_top == b.side_top && same_shaking(a.shaker, b.shaker);
+}
+
+// The stepper: the state of one or several boxes (replicas: one scene, other
+// seeds; gpu/kernel_stepper.hpp) and the step above, for one integrator and
+// one kind of walls. The replicas share the time, so one shaker pose and one
+// position of the smooth walls a step serve them all; each replica's wall
+// particles have their own anchors, each its own list, rebuilt when its own
+// particles have moved far enough, in cells keyed by replica.
 template <class Law, BoxIntegrator Integrator, BoxWalls Walls>
 class BoxKernels final : public KernelStepper<2> {
   static constexpr bool kGear = Integrator == BoxIntegrator::gear;
 
  public:
-  BoxKernels(const Law& law, const BoxModel& m)
-      : KernelStepper<2>("GPU box", std::vector<const BoxModel*>{&m}), law_(law), shaker_(m.shaker), flat_(m.flat) {
-    if (kGear && (m.p.aux_v.size() != 4 || m.p.aux_a.size() != 5))
-      throw std::invalid_argument("GPU box: Gear's scaled derivatives are missing from the state (Gear5::start)");
+  BoxKernels(const Law& law, const std::vector<BoxModel>& ms)
+      : KernelStepper<2>("GPU box", pointers(ms)), law_(law), shaker_(ms.front().shaker), flat_(ms.front().flat) {
+    const BoxModel& m = ms.front();
+    for (const BoxModel& r : ms) {
+      if (r.integrator != Integrator || r.walls != Walls || r.dt != m.dt || r.gear_c0 != m.gear_c0 ||
+          r.gravity != m.gravity || r.lo != m.lo || r.hi != m.hi || r.skin != m.skin ||
+          r.exclude_species != m.exclude_species || r.law.index() != m.law.index() ||
+          !same_shaking(r.shaker, m.shaker) || (Walls == BoxWalls::smooth && !same_flat_walls(r.flat, m.flat)))
+        throw std::invalid_argument(
+            "GPU box: replicas must share the integrator, its dt, the walls, the shaker and the domain");
+      if (kGear && (r.p.aux_v.size() != 4 || r.p.aux_a.size() != 5))
+        throw std::invalid_argument("GPU box: Gear's scaled derivatives are missing from the state (Gear5::start)");
+    }
     c0_ = m.gear_c0;
     exclude_ = m.exclude_species;
-    upload(m.p);
-    // Cells sized for the widest particle.
+    upload(ms);
+    // Each replica's cells sized for its widest particle.
     reserve_list<Law>(m.lo, m.hi, {}, 16);
     // The forces of the model's state are those the CPU engine computed
     // (Simulation::init, or the last step): the first stage reads them. A
@@ -341,8 +367,9 @@ class BoxKernels final : public KernelStepper<2> {
   void download(ParticleStore<2>& p, int r) const override {
     KernelStepper<2>::download(p, r);
     if (kGear && p.aux_v.size() == 4 && p.aux_a.size() == 5) {
-      for (int k = 0; k < 4; ++k) download_column(r_[k], 0, p.aux_v[k]);
-      for (int k = 0; k < 5; ++k) download_column(q_[k], 0, p.aux_a[k]);
+      const unsigned off = offset(r);
+      for (int k = 0; k < 4; ++k) download_column(r_[k], off, p.aux_v[k]);
+      for (int k = 0; k < 5; ++k) download_column(q_[k], off, p.aux_a[k]);
     }
   }
 
@@ -367,6 +394,13 @@ class BoxKernels final : public KernelStepper<2> {
     return w;
   }
 
+  static std::vector<const BoxModel*> pointers(const std::vector<BoxModel>& ms) {
+    if (ms.empty()) throw std::invalid_argument("GPU box: no replica to step");
+    std::vector<const BoxModel*> out;
+    for (const BoxModel& m : ms) out.push_back(&m);
+    return out;
+  }
+
   // The list's pairs: none of two wall particles.
   NoPairWithinSpecies pairs() const { return {species_.data(), exclude_}; }
 
@@ -378,20 +412,32 @@ class BoxKernels final : public KernelStepper<2> {
     return s;
   }
 
-  // The wall particles' anchors, by index (the shaker keeps them by id), and
-  // Gear's scaled derivatives.
-  void upload(const ParticleStore<2>& p) {
+  // The wall particles' anchors, by index (each replica's shaker keeps its
+  // own by id), and Gear's scaled derivatives.
+  void upload(const std::vector<BoxModel>& ms) {
     std::vector<double> anchor(2 * static_cast<std::size_t>(n_), 0.0);
-    for (unsigned i = 0; i < n_; ++i) {
-      if (p.species[i] != kWallSpecies) continue;
-      const auto id = static_cast<std::size_t>(p.id[i]);
-      if (id >= shaker_.anchor.size()) throw std::invalid_argument("GPU box: a wall particle without an anchor");
-      for (int a = 0; a < 2; ++a) anchor[a * n_ + i] = shaker_.anchor[id][a];
+    for (unsigned r = 0; r < k_; ++r) {
+      const ParticleStore<2>& p = ms[r].p;
+      const auto& anchors = ms[r].shaker.anchor;
+      for (unsigned i = 0; i < p.size(); ++i) {
+        if (p.species[i] != kWallSpecies) continue;
+        const auto id = static_cast<std::size_t>(p.id[i]);
+        if (id >= anchors.size()) throw std::invalid_argument("GPU box: a wall particle without an anchor");
+        for (int a = 0; a < 2; ++a) anchor[a * n_ + offsets_[r] + i] = anchors[id][a];
+      }
     }
     anchor_.upload(anchor);
     if constexpr (kGear) {
-      for (int k = 0; k < 4; ++k) upload_column(std::vector{&p.aux_v[k]}, r_[k]);
-      for (int k = 0; k < 5; ++k) upload_column(std::vector{&p.aux_a[k]}, q_[k]);
+      for (int k = 0; k < 4; ++k) {
+        std::vector<const Column<ParticleStore<2>::V>*> cols;
+        for (const BoxModel& m : ms) cols.push_back(&m.p.aux_v[k]);
+        upload_column(cols, r_[k]);
+      }
+      for (int k = 0; k < 5; ++k) {
+        std::vector<const Column<ParticleStore<2>::A>*> cols;
+        for (const BoxModel& m : ms) cols.push_back(&m.p.aux_a[k]);
+        upload_column(cols, q_[k]);
+      }
     }
   }
 
@@ -404,19 +450,22 @@ class BoxKernels final : public KernelStepper<2> {
   DeviceArray<double> r_[4], q_[5];
 };
 
-// A stepper for the model's law, integrator and walls, in this build.
-inline std::unique_ptr<BoxStepper> make_box_stepper(const BoxModel& m) {
+// A stepper for the replicas' law, integrator and walls (the first's: the
+// replicas are one scene), in this build.
+inline std::unique_ptr<BoxStepper> make_box_stepper(const std::vector<BoxModel>& ms) {
+  if (ms.empty()) throw std::invalid_argument("GPU box: no replica to step");
+  const BoxModel& m = ms.front();
   return std::visit(
       [&](const auto& law) -> std::unique_ptr<BoxStepper> {
         using Law = std::decay_t<decltype(law)>;
         using I = BoxIntegrator;
         using W = BoxWalls;
         if (m.walls == W::smooth) {
-          if (m.integrator == I::gear) return std::make_unique<BoxKernels<Law, I::gear, W::smooth>>(law, m);
-          return std::make_unique<BoxKernels<Law, I::leapfrog, W::smooth>>(law, m);
+          if (m.integrator == I::gear) return std::make_unique<BoxKernels<Law, I::gear, W::smooth>>(law, ms);
+          return std::make_unique<BoxKernels<Law, I::leapfrog, W::smooth>>(law, ms);
         }
-        if (m.integrator == I::gear) return std::make_unique<BoxKernels<Law, I::gear, W::particles>>(law, m);
-        return std::make_unique<BoxKernels<Law, I::leapfrog, W::particles>>(law, m);
+        if (m.integrator == I::gear) return std::make_unique<BoxKernels<Law, I::gear, W::particles>>(law, ms);
+        return std::make_unique<BoxKernels<Law, I::leapfrog, W::particles>>(law, ms);
       },
       m.law);
 }

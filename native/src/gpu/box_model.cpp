@@ -1,6 +1,14 @@
 #include "gpu/box_model.hpp"
 
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
 #include <type_traits>
+#include <variant>
+#include <vector>
+
+#include "gpu/drum_gpu.hpp"  // DeviceSizing
 
 namespace granular::gpu {
 
@@ -40,6 +48,33 @@ BoxModel box_model(const BoxSim& sim) {
         return m;
       },
       sim);
+}
+
+DeviceSizing box_sizing(const std::vector<BoxModel>& ms) {
+  DeviceSizing z;
+  std::size_t columns = 0;
+  for (const BoxModel& m : ms) {
+    double d_min = std::numeric_limits<double>::infinity(), d_max = 0.0;
+    for (double d : m.p.d) {
+      d_min = std::min(d_min, d);
+      d_max = std::max(d_max, d);
+    }
+    if (m.p.size() == 0) continue;
+    const double reach =
+        std::visit([&](const auto& law) { return std::decay_t<decltype(law)>::range(d_max, d_max); }, m.law) + m.skin;
+    const auto c = cell_counts(m.lo, m.hi, std::array<bool, 2>{false, false}, reach);
+    z.particles += m.p.size();
+    z.cells += static_cast<std::size_t>(c[0]) * static_cast<std::size_t>(c[1]);
+    // Centres within `reach` in a hexagonal packing of the smallest disks
+    // (area fraction 0.91), less the particle itself, with the stepper's margin.
+    const double ratio = reach / d_min;
+    const auto within = static_cast<std::size_t>(std::ceil(std::max(0.0, 4.0 * 0.91 * ratio * ratio - 1.0)));
+    columns = std::max(columns, within + within / 4 + 8);
+  }
+  // The box keeps 15 doubles a particle (2D), the anchors and Gear's columns
+  // 15 more: 7 beyond device_bytes' 23, counted as 14 four-byte words.
+  z.list_columns = columns + 14;
+  return z;
 }
 
 }  // namespace granular::gpu

@@ -81,8 +81,11 @@ class KernelStepper : public Stepper<Dim> {
     step_lim2_ = std::numeric_limits<double>::infinity();
     for (const Model* r : ms) step_lim2_ = std::min(step_lim2_, r->max_step_move * r->max_step_move);
     for (int a = 0; a < Dim; ++a) g_[a] = m.gravity[a];
-    for (const Model* r : ms)
-      for (double d : r->p.d) d_max_ = std::max(d_max_, d);
+    for (const Model* r : ms) {
+      double d_max = 0.0;
+      for (double d : r->p.d) d_max = std::max(d_max, d);
+      d_max_.push_back(d_max);
+    }
     upload_column(columns(ms, &ParticleStore<Dim>::x), x_);
     upload_column(columns(ms, &ParticleStore<Dim>::v), v_);
     upload_column(columns(ms, &ParticleStore<Dim>::w), w_);
@@ -112,20 +115,26 @@ class KernelStepper : public Stepper<Dim> {
     }
   }
 
-  // The list's cells over the domain [lo, hi), sized for the widest
-  // particle, and rows of `cap` columns to start with.
+  // The list's cells over the domain [lo, hi), each replica's sized for its
+  // widest particle (as a stepper of that replica alone sizes them, so that
+  // its list's rows are in the same order), and rows of `cap` columns to
+  // start with.
   template <class Law>
   void reserve_list(const std::array<double, Dim>& lo, const std::array<double, Dim>& hi,
                     const std::array<bool, Dim>& periodic, unsigned cap) {
-    const auto c = cell_counts(lo, hi, periodic, Law::range(d_max_, d_max_) + skin_);
-    CellGrid<Dim> grid{};
-    for (int a = 0; a < Dim; ++a) {
-      grid.n[a] = c[a];
-      grid.periodic[a] = periodic[a];
-      grid.lo[a] = lo[a];
-      grid.width[a] = (hi[a] - lo[a]) / c[a];
+    std::vector<CellGrid<Dim>> grids;
+    for (unsigned r = 0; r < k_; ++r) {
+      const auto c = cell_counts(lo, hi, periodic, Law::range(d_max_[r], d_max_[r]) + skin_);
+      CellGrid<Dim> grid{};
+      for (int a = 0; a < Dim; ++a) {
+        grid.n[a] = c[a];
+        grid.periodic[a] = periodic[a];
+        grid.lo[a] = lo[a];
+        grid.width[a] = (hi[a] - lo[a]) / c[a];
+      }
+      grids.push_back(grid);
     }
-    list_.reserve(grid, k_, n_, cap, who_);
+    list_.reserve(grids, n_, cap, who_);
   }
 
   // The list built for the replicas marked in renew_host_.
@@ -226,7 +235,8 @@ class KernelStepper : public Stepper<Dim> {
   bool resumed_ = false;                   // the list is built from the models' reference positions
   double time_;
   long steps_;
-  double dt_ = 0.0, skin_ = 0.0, step_lim2_ = 0.0, d_max_ = 0.0;
+  double dt_ = 0.0, skin_ = 0.0, step_lim2_ = 0.0;
+  std::vector<double> d_max_;  // per replica: its widest particle's diameter
   double g_[Dim] = {};
   DeviceArray<double> x_, v_, w_, f_, t_, d_, inv_m_, inv_i_, x_ref_, disp2_, max_d_, health_;
   DeviceArray<std::int32_t> species_;

@@ -181,12 +181,14 @@ struct NoPairWithinSpecies {
 
 // The positions the list is built from: the current ones for the particles
 // of the replicas that rebuild (renew[r] != 0), the last build's for the
-// others; then each particle's cell of its reference position, keyed by
-// replica, and its index (the values the sort carries).
+// others; then each particle's cell of its reference position in its
+// replica's grid, keyed by replica (the replica's first key, base), and its
+// index (the values the sort carries).
 template <int Dim>
 struct CellOf {
   ListPositions s;
-  CellGrid<Dim> grid;
+  const CellGrid<Dim>* grids;  // by replica
+  const std::uint32_t* base;   // by replica: its first cell key
   const std::uint32_t* replica;
   const std::uint32_t* renew;
   std::uint32_t* cell;
@@ -194,13 +196,15 @@ struct CellOf {
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
-    const bool moved = renew[replica[i]] != 0;
+    const std::uint32_t r = replica[i];
+    const CellGrid<Dim> grid = grids[r];
+    const bool moved = renew[r] != 0;
     int q[Dim];
     for (int a = 0; a < Dim; ++a) {
       if (moved) s.x_ref[a * n + i] = s.x[a * n + i];
       q[a] = grid.coord(s.x_ref[a * n + i], a);
     }
-    cell[i] = replica[i] * grid.cells() + grid.index(q);
+    cell[i] = base[r] + grid.index(q);
     index[i] = i;
   }
 };
@@ -254,7 +258,8 @@ struct ListNeighbors {
   ListPositions s;
   Domain domain;
   Filter filter;
-  CellGrid<Dim> grid;
+  const CellGrid<Dim>* grids;  // by replica
+  const std::uint32_t* base;   // by replica: its first cell key
   const std::uint32_t* replica;
   double skin;
   const std::uint32_t* start;
@@ -271,7 +276,8 @@ struct ListNeighbors {
     for (int a = 0; a < Dim; ++a) xi[a] = xr[a * n + i];
     const double di = s.d[i];
     const auto row = filter.row(i);
-    const std::uint32_t base = replica[i] * grid.cells();
+    const CellGrid<Dim> grid = grids[replica[i]];
+    const std::uint32_t first_key = base[replica[i]];
     int q[Dim], first[Dim], last[Dim], o[Dim];
     for (int a = 0; a < Dim; ++a) {
       q[a] = grid.coord(xi[a], a);
@@ -289,7 +295,7 @@ struct ListNeighbors {
     for_stencil<0>(first, last, o, [&](const int(&off)[Dim]) {
       int cq[Dim];
       for (int a = 0; a < Dim; ++a) cq[a] = (q[a] + off[a] + grid.n[a]) % grid.n[a];
-      const std::uint32_t c = base + grid.index(cq);
+      const std::uint32_t c = first_key + grid.index(cq);
       for (std::uint32_t k = start[c], ke = end[c]; k < ke; ++k) {
         const std::uint32_t j = sorted[k];
         if (j == i || row.skip(j)) continue;
@@ -346,15 +352,23 @@ GRANULAR_HD double worst_listed_overlap(const double* x, const double* d, unsign
 template <int Dim>
 class NeighborList {
  public:
-  // The grid (each replica's), for `replicas` replicas of n particles in all,
-  // rows of `cap` columns to start with; `who` names the stepper in errors.
-  void reserve(const CellGrid<Dim>& grid, unsigned replicas, unsigned n, unsigned cap, const std::string& who) {
-    grid_ = grid;
+  // Each replica's grid (grids[r]: replica r's; replicas of one scene whose
+  // widest particles differ have cells of other widths), for n particles in
+  // all, rows of `cap` columns to start with; `who` names the stepper in
+  // errors. Replica r's cells are keyed after those of the replicas before it.
+  void reserve(const std::vector<CellGrid<Dim>>& grids, unsigned n, unsigned cap, const std::string& who) {
     n_ = n;
     cap_ = cap;
-    const std::uint64_t keys = std::uint64_t{grid_.cells()} * replicas;
-    if (keys >= std::numeric_limits<std::uint32_t>::max() / 2)
-      throw std::invalid_argument(who + ": too many cells for 32-bit keys");
+    std::vector<std::uint32_t> base;
+    std::uint64_t keys = 0;
+    for (const CellGrid<Dim>& g : grids) {
+      base.push_back(static_cast<std::uint32_t>(keys));
+      keys += g.cells();
+      if (keys >= std::numeric_limits<std::uint32_t>::max() / 2)
+        throw std::invalid_argument(who + ": too many cells for 32-bit keys");
+    }
+    grids_.upload(grids);
+    base_.upload(base);
     end_bit_ = 1;
     while ((std::uint64_t{1} << end_bit_) < keys) ++end_bit_;
     cell_start_.resize(keys);
@@ -371,15 +385,15 @@ class NeighborList {
   template <class Law, class Domain, class Filter>
   void build(const ListPositions& s, const std::uint32_t* replica, const std::uint32_t* renew, const Domain& domain,
              const Filter& filter, double skin, Scratch& scratch) {
-    for_each(n_, CellOf<Dim>{s, grid_, replica, renew, cell_.data(), index_.data()});
+    for_each(n_, CellOf<Dim>{s, grids_.data(), base_.data(), replica, renew, cell_.data(), index_.data()});
     sort_pairs(cell_.data(), sorted_cell_.data(), index_.data(), sorted_.data(), n_, end_bit_, scratch);
     for_each(static_cast<unsigned>(cell_start_.size()), ClearRanges{cell_start_.data(), cell_end_.data()});
     for_each(n_, CellRanges{sorted_cell_.data(), cell_start_.data(), cell_end_.data(), n_});
     while (true) {
       nbr_.resize(static_cast<std::size_t>(cap_) * n_);
-      for_each(n_, ListNeighbors<Law, Dim, Domain, Filter>{s, domain, filter, grid_, replica, skin, cell_start_.data(),
-                                                           cell_end_.data(), sorted_.data(), nbr_.data(), count_.data(),
-                                                           cap_});
+      for_each(n_, ListNeighbors<Law, Dim, Domain, Filter>{s, domain, filter, grids_.data(), base_.data(), replica,
+                                                           skin, cell_start_.data(), cell_end_.data(), sorted_.data(),
+                                                           nbr_.data(), count_.data(), cap_});
       const std::uint32_t longest = max_of(count_.data(), n_, std::uint32_t{0}, max_count_, scratch);
       if (longest <= cap_) break;
       cap_ = longest + longest / 4 + 8;
@@ -391,7 +405,8 @@ class NeighborList {
   long builds() const { return builds_; }
 
  private:
-  CellGrid<Dim> grid_{};
+  DeviceArray<CellGrid<Dim>> grids_;
+  DeviceArray<std::uint32_t> base_;
   unsigned n_ = 0;
   int end_bit_ = 1;
   unsigned cap_ = 0;  // list columns per particle
