@@ -128,11 +128,7 @@ HealthLimits box_health(const BoxScene& s) {
 template <class Sim>
 RunReport run_impl(const BoxScene& s, std::vector<BoxMember>& ms, RunDriver* driver, bool progress) {
   const std::size_t members = ms.size();
-  std::vector<Sim*> sims;
-  for (BoxMember& m : ms) {
-    if (!std::holds_alternative<Sim>(*m.sim)) throw std::logic_error("run_boxes: the members' models differ");
-    sims.push_back(&std::get<Sim>(*m.sim));
-  }
+  const std::vector<Sim*> sims = member_sims<Sim>(ms, "run_boxes");
   Sim& sim = *sims.front();  // the schedule's
   const HealthLimits health = box_health(s);
   for (Sim* v : sims) health.apply(*v);

@@ -78,12 +78,8 @@ RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, 
 RunReport run_box(const BoxScene& s, BoxSim& sim, H5Output* out, bool progress, const RunControl& ctl,
                   RunDriver& driver);
 
-// One box of a run: its simulation, output (may be null) and checkpoints.
-struct BoxMember {
-  BoxSim* sim;
-  H5Output* out;
-  RunControl ctl;
-};
+// One box of a run (engine/run_driver.hpp).
+using BoxMember = RunMember<BoxSim>;
 
 // Runs every member (boxes of one scene, other seeds: one schedule of
 // output and checks; their simulations the same alternative) stepped by the

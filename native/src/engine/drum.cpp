@@ -134,11 +134,7 @@ HealthLimits drum_health(const DrumScene& s) {
 template <class Sim>
 RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, RunDriver* driver, bool progress) {
   const std::size_t members = ms.size();
-  std::vector<Sim*> sims;
-  for (DrumMember& m : ms) {
-    if (!std::holds_alternative<Sim>(*m.sim)) throw std::logic_error("run_drums: the members' models differ");
-    sims.push_back(&std::get<Sim>(*m.sim));
-  }
+  const std::vector<Sim*> sims = member_sims<Sim>(ms, "run_drums");
   Sim& sim = *sims.front();  // the schedule's
   const HealthLimits health = drum_health<Sim>(s);
   for (Sim* v : sims) health.apply(*v);

@@ -49,12 +49,8 @@ std::vector<double> axial_small_fraction(const ParticleStore<3>& p, const std::v
 RunReport run_drum(const DrumScene& s, DrumSim& sim, H5Output* out, bool progress,
                    const RunControl& ctl = RunControl{});
 
-// One drum of a run: its simulation, output (may be null) and checkpoints.
-struct DrumMember {
-  DrumSim* sim;
-  H5Output* out;
-  RunControl ctl;
-};
+// One drum of a run (engine/run_driver.hpp).
+using DrumMember = RunMember<DrumSim>;
 
 // Runs every member s.rotations rotations (members of one scene, so one
 // schedule of output and checks; their simulations the same alternative),

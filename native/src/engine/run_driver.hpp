@@ -7,12 +7,18 @@
 // the scene's model and, once fetched, the state.
 #pragma once
 #include <cstddef>
+#include <stdexcept>
+#include <string>
+#include <variant>
+#include <vector>
 
 #include "engine/coulomb_census.hpp"
 #include "engine/health.hpp"
 #include "engine/run_control.hpp"
 
 namespace granular {
+
+class H5Output;  // io/h5_output.hpp
 
 class RunDriver {
  public:
@@ -34,6 +40,28 @@ class RunDriver {
   // Member r's state as a checkpoint holds it (engine/checkpoint.hpp, capture).
   virtual void capture(std::size_t r, CheckpointData& c) = 0;
 };
+
+// One member of a run: its simulation (a scene's variant of simulation
+// types: DrumSim, BoxSim), its output (may be null) and its checkpoints.
+template <class SimVariant>
+struct RunMember {
+  SimVariant* sim;
+  H5Output* out;
+  RunControl ctl;
+};
+
+// The members' simulations as the alternative Sim of their variant; `run`
+// names the run loop for the message when a member's model is another.
+template <class Sim, class SimVariant>
+std::vector<Sim*> member_sims(std::vector<RunMember<SimVariant>>& ms, const char* run) {
+  std::vector<Sim*> sims;
+  for (RunMember<SimVariant>& m : ms) {
+    if (!std::holds_alternative<Sim>(*m.sim))
+      throw std::logic_error(std::string(run) + ": the members' models differ");
+    sims.push_back(&std::get<Sim>(*m.sim));
+  }
+  return sims;
+}
 
 // n steps of a run: by its driver where it has one (driver not null), else
 // by its simulation.
