@@ -84,8 +84,10 @@ def cpu_and_gpu_host(tmp_path_factory):
     return cpu, gpu
 
 
-def test_gpu_host_writes_the_cpu_schema(cpu_and_gpu_host):
-    cpu, gpu = cpu_and_gpu_host
+def assert_same_schema(cpu, gpu):
+    """The GPU engine's output has every dataset of the CPU engine's, with its
+    shape and type, and the same attributes (the engine version aside);
+    returns both files' datasets."""
     dc, dg = datasets(cpu), datasets(gpu)
     assert sorted(dc) == sorted(dg)
     for name in dc:
@@ -97,6 +99,11 @@ def test_gpu_host_writes_the_cpu_schema(cpu_and_gpu_host):
         if name != "/:engine_version":
             assert np.array_equal(ac[name], ag[name]), f"attribute {name} differs"
     assert np.isfinite(dg["frames/position"]).all()
+    return dc, dg
+
+
+def test_gpu_host_writes_the_cpu_schema(cpu_and_gpu_host):
+    assert_same_schema(*cpu_and_gpu_host)
 
 
 def test_gpu_host_follows_the_cpu_engine(cpu_and_gpu_host):
