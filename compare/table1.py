@@ -317,12 +317,15 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
         lines += [f"![{label}]({rel}/{p.name})" for label, p in view_figs]
     lines += ["", "## Figures", ""]
     lines += [f"![{rid}]({rel}/{p.name})" for rid, p in figs]
+    from .table1_step import step_check, step_lines
+    step = step_check(run_dir)
+    lines += step_lines(step)
     notes = Path(notes) if notes else out_md.with_name("table1_notes.md")
     if notes.exists():
         lines += ["", notes.read_text().rstrip()]
     out_md.write_text("\n".join(lines) + "\n")
     out_json = Path(out_json) if out_json else out_md.with_suffix(".json")
-    out_json.write_text(json.dumps({"runs": summaries, "tolerance_bands": TOLERANCE_BANDS,
+    out_json.write_text(json.dumps({"runs": summaries, "step_check": step, "tolerance_bands": TOLERANCE_BANDS,
                                     "event_window_rotations": EVENT_WINDOW}, indent=1, default=float) + "\n")
     return out_md
 

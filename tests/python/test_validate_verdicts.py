@@ -152,6 +152,10 @@ def test_seeds_per_variant_and_engine():
     assert box.paired_runs("3.2Hz", "native-leapfrog", "lammps") == 5
     assert box.paired_runs("3.2Hz", "native-viscel", "yade") == 2
     assert box.paired_runs("2.6Hz", "native-viscel", "yade") == 2
+    box.engine_seeds = {"yade": {"3.2Hz": [1, 2, 3, 4]}}
+    assert box.seeds_of("3.2Hz", "yade") == [1, 2, 3, 4]
+    assert box.seeds_of("2.6Hz", "yade") == [1, 2, 3]  # no entry for the variant: the variant's seeds
+    assert box.paired_runs("3.2Hz", "native-viscel", "yade") == 4
 
 
 def test_the_quick_suite_passes_a_correct_engine_reliably():
