@@ -14,7 +14,7 @@ from compare.reader import read_run
 from synthetic import banded_y, random_bed, species_and_diameters, write_drum_run
 
 N = 2000
-EVERY = 25  # rotations between snapshots
+EVERY = 50  # rotations between snapshots
 
 
 def _run(path, rng, sp, d, bands_of, rotations, dt):
@@ -33,14 +33,14 @@ def _run(path, rng, sp, d, bands_of, rotations, dt):
 
 def _setup(tmp_path, merge_at_large):
     """#A (0.01, seed 1, 1200 rotations) and seeds 2-4 at 0.005 and 2-3 at 0.01;
-    every run forms 8 bands at rotation 25; the 0.01 runs merge at
+    every run forms 8 bands at rotation 50; the 0.01 runs merge at
     merge_at_large (None: never) to 4, two band pairs fewer."""
     rng = np.random.default_rng(3)
     sp, d = species_and_diameters(rng, N)
     runs = tmp_path / "runs"
     (runs / "step").mkdir(parents=True)
-    steady = lambda r: 8 if r >= 25 else 0
-    merging = (lambda r: 0 if r < 25 else (8 if merge_at_large is None or r < merge_at_large else 4))
+    steady = lambda r: 8 if r >= 50 else 0
+    merging = (lambda r: 0 if r < 50 else (8 if merge_at_large is None or r < merge_at_large else 4))
     _run(runs / "A.h5", rng, sp, d, merging, 1200, 0.01)
     for s in (2, 3, 4):
         _run(runs / "step" / f"A_dt0.005_s{s}.h5", rng, sp, d, steady, 1000, 0.005)
@@ -54,8 +54,8 @@ def test_run_until_cuts_at_the_rotation(tmp_path):
     run = read_run(runs / "A.h5")
     cut = run_until(run, 1000)
     t = cut.frames.time / run.rotation_period
-    assert abs(t[-1] - 1000) < 1e-9 and cut.frames.n_frames == 41 and run.frames.n_frames == 49
-    assert cut.frames.position.shape[0] == 41
+    assert abs(t[-1] - 1000) < 1e-9 and cut.frames.n_frames == 21 and run.frames.n_frames == 25
+    assert cut.frames.position.shape[0] == 21
 
 
 def test_same_histories_are_equivalent(tmp_path):
