@@ -25,10 +25,11 @@ import numpy as np
 from .bands import band_events
 from .observe import analyse
 from .reader import read_run
+from .table1 import EVENT_WINDOW, TOLERANCE_BANDS
+from .table1 import _fmt as _f
 
 ROTATIONS = 1000.0
-MARGINS = {"bands_1000": 2.0, "slope_deg": 1.5}
-EVENT_WINDOW = 50.0
+MARGINS = {"bands_1000": float(TOLERANCE_BANDS), "slope_deg": 1.5}
 NAME = re.compile(r"A_dt(?P<dt>[0-9.]+)_s(?P<seed>\d+)\.h5$")
 
 
@@ -48,7 +49,10 @@ def run_until(run, rotations):
 
 
 def observe_one(path, dt, seed, done):
-    run = run_until(read_run(path), ROTATIONS)
+    """One run's observables up to ROTATIONS (dt None: the step the run ran at)."""
+    run = read_run(path)
+    dt = float(run.scene["integrator"]["dt"]) if dt is None else dt
+    run = run_until(run, ROTATIONS)
     obs = analyse(run)
     b = obs["bands"]
     t, counts = np.asarray(b.time_rotations), np.asarray(b.counts)
@@ -74,8 +78,7 @@ def step_runs(run_dir):
     out = []
     a = run_dir / "A.h5"
     if a.exists():
-        dt = float(read_run(a).scene["integrator"]["dt"])
-        out.append(observe_one(a, dt, 1, True))
+        out.append(observe_one(a, None, 1, True))
     for p in sorted((run_dir / "step").glob("A_dt*_s*.h5")):
         m = NAME.search(p.name)
         if m:
@@ -106,10 +109,6 @@ def step_check(run_dir):
     verdicts["first_merge"] = {"a": a, "b": b, "p": float(mw.pvalue) if mw else None}
     return {"steps": [small, large], "rotations": ROTATIONS, "margins": MARGINS, "runs": runs,
             "verdicts": verdicts}
-
-
-def _f(x, spec=".0f"):
-    return "–" if x is None else format(x, spec)
 
 
 def step_lines(check):
