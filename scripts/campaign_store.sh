@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# Keeps a long background job's state in the repository, so that it outlives
+# the machine it runs on: the job's commit, job list and runs are copied into
+# campaign/NAME/ and committed there; a job started where its directory is
+# missing continues from that copy (scripts/table1_campaign.sh, scripts/box_long.sh).
+#
+#   scripts/campaign_store.sh save NAME [DIR]      copy DIR's state into campaign/NAME/ and commit it
+#   scripts/campaign_store.sh restore NAME [DIR]   copy campaign/NAME/ into DIR, where DIR holds no job
+#
+# NAME is the job (table1, box); DIR defaults to /var/lib/granular/NAME. Kept:
+# DIR/COMMIT, DIR/jobs.txt and DIR/runs (outputs, checkpoints, logs and .done
+# marks); the engine is rebuilt from COMMIT (scripts/pin_commit.sh). The runs
+# are copied with the job's engines stopped (SIGSTOP, then SIGCONT), so that
+# each file is copied as it was at one moment: an output is written in HDF5's
+# single-writer/multiple-reader mode, consistent at every moment, and a
+# checkpoint replaces the previous one in one rename after the output rows it
+# records are flushed.
+set -euo pipefail
+here="$(cd "$(dirname "$0")/.." && pwd)"
+verb="${1:?save or restore}"; name="${2:?job name}"
+dir="$(realpath -m "${3:-/var/lib/granular/$name}")"
+store="$here/campaign/$name"
+
+copy_state() {  # FROM TO: COMMIT, jobs.txt and runs/, without unfinished temporaries
+  local from="$1" to="$2"
+  mkdir -p "$to"
+  for f in COMMIT jobs.txt; do [ -e "$from/$f" ] && cp -p "$from/$f" "$to/$f"; done
+  rm -rf "$to/runs.new"
+  mkdir -p "$to/runs.new"
+  if [ -d "$from/runs" ]; then
+    (cd "$from/runs" && find . -type f ! -name '*.tmp' ! -name '*.resuming' -print0 |
+      xargs -0 -r cp -p --parents -t "$to/runs.new")
+  fi
+  rm -rf "$to/runs"
+  mv "$to/runs.new" "$to/runs"
+}
+
+case "$verb" in
+  save)
+    [ -e "$dir/COMMIT" ] || { echo "campaign_store: no job in $dir (no COMMIT)" >&2; exit 2; }
+    mapfile -t pids < <(pgrep -f "^([^ ]*/)?$dir/engine/granular " || true)
+    resume() { ((${#pids[@]})) && kill -CONT "${pids[@]}" 2>/dev/null || :; }
+    trap resume EXIT
+    ((${#pids[@]})) && kill -STOP "${pids[@]}" 2>/dev/null || :
+    copy_state "$dir" "$store"
+    resume
+    trap - EXIT
+    cd "$here"
+    git add -A -f "campaign/$name"
+    if git diff --cached --quiet -- "campaign/$name"; then
+      echo "campaign_store: campaign/$name unchanged"
+    else
+      git commit -q -m "campaign/$name: runs as of $(date -u +%Y-%m-%dT%H:%MZ)" -- "campaign/$name"
+      echo "campaign_store: campaign/$name committed ($(du -sh "$store" | cut -f1))"
+    fi
+    ;;
+  restore)
+    if [ -e "$dir/COMMIT" ]; then exit 0; fi
+    [ -e "$store/COMMIT" ] || exit 0
+    copy_state "$store" "$dir"
+    echo "campaign_store: $dir restored from campaign/$name (commit $(cat "$dir/COMMIT"))"
+    ;;
+  *) echo "campaign_store: unknown verb $verb (save or restore)" >&2; exit 2 ;;
+esac
