@@ -82,3 +82,59 @@ def test_campaign_status_lists_reached_rotations(tmp_path):
     assert rows["A"][0] == "-" and "waiting" in rows["A"]
     step = rows["A_dt0.005_s1"]
     assert float(step[0]) == pytest.approx(0.25, abs=0.06) and step[1] == "0.25" and "running" in step
+
+
+def test_state_saved_while_running_resumes_elsewhere_to_the_same_end(tmp_path):
+    """scripts/campaign_store.sh: the state of a job whose engine is writing is
+    saved into the repository (committed), the engine goes on, and the saved
+    state restored into another directory resumes to the end the uninterrupted
+    run reaches, bit for bit."""
+    repo = tmp_path / "repo"
+    (repo / "scripts").mkdir(parents=True)
+    (repo / "scripts" / "campaign_store.sh").write_bytes((ROOT / "scripts" / "campaign_store.sh").read_bytes())
+    (repo / ".gitignore").write_bytes((ROOT / ".gitignore").read_bytes())
+    git = ["git", "-C", str(repo), "-c", "user.name=test", "-c", "user.email=test@localhost"]
+    subprocess.run(["git", "init", "-q", str(repo)], check=True)
+    subprocess.run(git + ["add", "."], check=True)
+    subprocess.run(git + ["commit", "-qm", "scripts"], check=True)
+    job = tmp_path / "job"
+    (job / "engine").mkdir(parents=True)
+    (job / "engine" / "granular").symlink_to(BIN)
+    (job / "COMMIT").write_text("0" * 40 + "\n")
+    (job / "jobs.txt").write_text("one job\n")
+    out = job / "runs" / "A.h5"
+    out.parent.mkdir()
+    sets = [s.replace("run.rotations=1.5", "run.rotations=4") for s in SETS]
+    run = [str(job / "engine" / "granular"), "run", str(SCENE), "--threads", "1", "-q", *sets]
+    p = subprocess.Popen(run + ["-o", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while not Path(f"{out}.ckpt").exists() and time.time() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    if p.poll() is not None:
+        pytest.skip("the run finished before its state could be saved")
+    env = dict(os.environ, GIT_AUTHOR_NAME="test", GIT_AUTHOR_EMAIL="test@localhost",
+               GIT_COMMITTER_NAME="test", GIT_COMMITTER_EMAIL="test@localhost")
+    s = subprocess.run(["bash", str(repo / "scripts" / "campaign_store.sh"), "save", "fake", str(job)],
+                       capture_output=True, text=True, timeout=120, env=env)
+    assert s.returncode == 0, s.stderr
+    if p.poll() is None:  # the engine was paused for the copy, not left stopped
+        with open(f"/proc/{p.pid}/stat") as f:
+            assert f.read().split(")")[-1].split()[0] != "T"
+    assert p.wait(timeout=300) == 0, p.stderr.read()
+    tracked = subprocess.run(git + ["ls-files", "campaign/fake"], capture_output=True, text=True,
+                             check=True).stdout.split()
+    assert {"campaign/fake/COMMIT", "campaign/fake/jobs.txt", "campaign/fake/runs/A.h5",
+            "campaign/fake/runs/A.h5.ckpt"} <= set(tracked)
+    # restored on another machine: a directory without the job
+    job2 = tmp_path / "job2"
+    r = subprocess.run(["bash", str(repo / "scripts" / "campaign_store.sh"), "restore", "fake", str(job2)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert (job2 / "COMMIT").read_text() == (job / "COMMIT").read_text()
+    out2 = job2 / "runs" / "A.h5"
+    subprocess.run([str(BIN), "run", str(SCENE), "--threads", "1", "-q", *sets, "-o", str(out2), "--resume"],
+                   check=True, capture_output=True, timeout=300)
+    x, t = last_frame(out2)
+    x_ref, t_ref = last_frame(out)
+    np.testing.assert_array_equal(t, t_ref)
+    np.testing.assert_array_equal(x, x_ref)
