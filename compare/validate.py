@@ -441,6 +441,14 @@ def same_run_elsewhere(job, resolved):
     return None
 
 
+def write_meta(path, meta):
+    """A run's metadata, replacing the previous in one rename (a copy taken
+    while the suite runs, scripts/campaign_store.sh, never sees half of it)."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(meta, indent=1))
+    os.replace(tmp, path)
+
+
 def run_job(job, log=print):
     """Run one job unless its output exists and still matches the scene as it
     resolves now; returns its metadata dict."""
@@ -450,17 +458,18 @@ def run_job(job, log=print):
         os.link(twin, job.path)
         meta = json.loads(twin.with_suffix(".json").read_text()) | {"resolved_scene": resolved,
                                                                     "same_as": twin.name}
-        meta_path.write_text(json.dumps(meta, indent=1))
+        write_meta(meta_path, meta)
         log(f"  {job.label}: the cached {twin.name} ran this very scene; reused")
-    if job.path.exists() and meta_path.exists():
+    if meta_path.exists() and (job.path.exists() or kept_observables(job, json.loads(meta_path.read_text()))):
         meta = json.loads(meta_path.read_text())
         if "resolved_scene" not in meta:  # cached before the check existed: adopt today's resolution
             meta["resolved_scene"] = resolved
-            meta_path.write_text(json.dumps(meta, indent=1))
+            write_meta(meta_path, meta)
         if same_resolution(meta["resolved_scene"], resolved, NOT_READ.get((job.engine, job.case.kind), ())):
             return meta | {"cached": True}
-        stale = job.path.with_name(job.path.stem + ".stale.h5")
-        os.replace(job.path, stale)
+        if job.path.exists():
+            stale = job.path.with_name(job.path.stem + ".stale.h5")
+            os.replace(job.path, stale)
         meta_path.unlink()
         log(f"  stale: {job.label} ran a scene that now resolves differently (a default changed); "
             f"moved to {stale.name}, running again")
@@ -481,7 +490,7 @@ def run_job(job, log=print):
         return meta | {"cached": False}
     os.replace(tmp, job.path)
     drop_run_companions(tmp)
-    meta_path.write_text(json.dumps(meta, indent=1))
+    write_meta(meta_path, keep_observables(job, meta))
     return meta | {"cached": False}
 
 
@@ -638,7 +647,7 @@ def run_batch(batch, device, log=print):
             continue
         os.replace(out, job.path)
         drop_run_companions(out)
-        job.path.with_suffix(".json").write_text(json.dumps(meta, indent=1))
+        write_meta(job.path.with_suffix(".json"), keep_observables(job, meta))
         metas.append(meta | {"cached": False})
     return metas
 
@@ -716,6 +725,55 @@ def box_observables(path):
     if read_census(path) is not None:
         out["coulomb_at_cap"] = CoulombCap(Shaker(run).settle, BOX_SPECIES).compute(path).all_at_cap
     return out
+
+
+# A run's observables are kept in its metadata (DIR/runs/X.json) beside the
+# analysis that computed them: a hash of that analysis's code (the functions
+# above and the modules they use). The suite's verdicts need only these, so a
+# run whose output is gone (a suite restored from its metadata alone,
+# scripts/campaign_store.sh) still counts while the analysis is unchanged;
+# a changed analysis computes them again from the output, or runs again.
+ANALYSIS_MODULES = ("observe.py", "bands.py", "profile.py", "spacetime.py", "surface.py", "box.py", "coulomb.py",
+                    "reader.py", "_common.py")
+
+
+@functools.lru_cache(maxsize=1)
+def analysis_hash():
+    import inspect
+    h = hashlib.sha256()
+    for f in (drum_observables, box_observables, steps_and_particles):
+        h.update(inspect.getsource(f).encode())
+    for name in ANALYSIS_MODULES:
+        h.update((ROOT / "compare" / name).read_bytes())
+    return h.hexdigest()[:16]
+
+
+def observables_of(job):
+    """(observables, steps, particles) of a finished run, from its output."""
+    obs = (drum_observables(job.path, job.case.params) if job.case.kind == "drum"
+           else box_observables(job.path))
+    steps, n = steps_and_particles(job.path)
+    return obs, steps, n
+
+
+def keep_observables(job, meta):
+    """meta with the run's observables added (see analysis_hash); unchanged
+    where the analysis fails, which the report then gives as the run's error."""
+    try:
+        obs, steps, n = observables_of(job)
+    except Exception:  # reported by _rows_of_case, which computes them again
+        return meta
+    return meta | {"observables": clean_json({"analysis": analysis_hash(), "params": job.case.params,
+                                              "values": obs, "steps": steps, "particles": n})}
+
+
+def kept_observables(job, meta):
+    """(observables, steps, particles) kept in meta by the present analysis
+    with the case's present parameters, or None."""
+    k = meta.get("observables")
+    if not k or k.get("analysis") != analysis_hash() or k.get("params") != clean_json(job.case.params):
+        return None
+    return k["values"], k["steps"], k["particles"]
 
 # ---------------------------------------------------------------- verdicts (docs/tolerances.md)
 
@@ -820,14 +878,14 @@ def _rows_of_case(cases, job, meta):
     r = v.setdefault(job.row, {"runs": []})
     # Speed from CPU time; runs cached before it was recorded fall back to wall-clock time.
     seconds = meta.get("cpu_seconds") or meta.get("wall_seconds")
-    run = {"seed": job.seed, "path": str(job.path), "wall_seconds": meta.get("wall_seconds"),
+    run = {"seed": job.seed, "path": str(job.path) if job.path.exists() else None,
+           "wall_seconds": meta.get("wall_seconds"),
            "cpu_seconds": meta.get("cpu_seconds"),
            "ok": meta.get("returncode") == 0, "error": meta.get("error"), "cached": meta.get("cached")}
     if run["ok"]:
         try:
-            obs = (drum_observables(job.path, job.case.params) if job.case.kind == "drum"
-                   else box_observables(job.path))
-            steps, n = steps_and_particles(job.path)
+            kept = kept_observables(job, meta)
+            obs, steps, n = kept if kept else observables_of(job)
             run.update(obs, particles=n, steps=steps,
                        particle_steps_per_second=n * steps / seconds if seconds else None,
                        timed_by="cpu" if meta.get("cpu_seconds") else "wall")

@@ -1,18 +1,22 @@
 #!/usr/bin/env bash
 # Keeps a long background job's state in the repository, so that it outlives
-# the machine it runs on: the job's commit, job list and runs are copied into
-# campaign/NAME/ and committed there; a job started where its directory is
-# missing continues from that copy (scripts/table1_campaign.sh, scripts/box_long.sh).
+# the machine it runs on: the job's commit and what it has produced are copied
+# into campaign/NAME/ and committed there; a job started where its directory is
+# missing continues from that copy (scripts/table1_campaign.sh,
+# scripts/validate_full.sh).
 #
 #   scripts/campaign_store.sh save NAME [DIR]      copy DIR's state into campaign/NAME/ and commit it
 #   scripts/campaign_store.sh restore NAME [DIR]   copy campaign/NAME/ into DIR, where DIR holds no job
 #
-# NAME is the job (table1, box); DIR defaults to /var/lib/granular/NAME. Kept:
-# DIR/COMMIT, DIR/jobs.txt and DIR/runs (outputs, checkpoints, logs and .done
-# marks); the engine is rebuilt from COMMIT (scripts/pin_commit.sh). The runs
-# are copied with the job's engines stopped (SIGSTOP, then SIGCONT), so that
-# each file is copied as it was at one moment: an output is written in HDF5's
-# single-writer/multiple-reader mode, consistent at every moment, and a
+# NAME is the job; DIR defaults to /var/lib/granular/NAME. Kept: DIR/COMMIT
+# (the engine is rebuilt from it, scripts/pin_commit.sh), and
+#   table1:         DIR/jobs.txt and DIR/runs (outputs, checkpoints, logs, .done marks);
+#   validate_full:  each finished run's metadata with its observables,
+#                   DIR/out/runs/*.json (compare/validate.py, "kept observables"),
+#                   and the reports DIR/out/report*; not the runs' outputs.
+# The files are copied with the job's engines stopped (SIGSTOP, then SIGCONT),
+# so that each is copied as it was at one moment: an output is written in
+# HDF5's single-writer/multiple-reader mode, consistent at every moment, and a
 # checkpoint replaces the previous one in one rename after the output rows it
 # records are flushed.
 set -euo pipefail
@@ -21,24 +25,27 @@ verb="${1:?save or restore}"; name="${2:?job name}"
 dir="$(realpath -m "${3:-/var/lib/granular/$name}")"
 store="$here/campaign/$name"
 
-copy_state() {  # FROM TO: COMMIT, jobs.txt and runs/, without unfinished temporaries
+kept() {  # the files of DIR to keep, relative to it
+  (cd "$1" && case "$name" in
+    validate_full) find . -path './out/runs/*.json' -o -path './out/report*' -type f ;;
+    *) find ./jobs.txt ./runs -type f ! -name '*.tmp' ! -name '*.resuming' 2>/dev/null ;;
+  esac) | sed 's|^\./||'
+}
+
+copy_state() {  # FROM TO: COMMIT and the kept files; TO's earlier copy is replaced as a whole
   local from="$1" to="$2"
-  mkdir -p "$to"
-  for f in COMMIT jobs.txt; do [ -e "$from/$f" ] && cp -p "$from/$f" "$to/$f"; done
-  rm -rf "$to/runs.new"
-  mkdir -p "$to/runs.new"
-  if [ -d "$from/runs" ]; then
-    (cd "$from/runs" && find . -type f ! -name '*.tmp' ! -name '*.resuming' -print0 |
-      xargs -0 -r cp -p --parents -t "$to/runs.new")
-  fi
-  rm -rf "$to/runs"
-  mv "$to/runs.new" "$to/runs"
+  rm -rf "$to.new"
+  mkdir -p "$to.new"
+  cp -p "$from/COMMIT" "$to.new/COMMIT"
+  (cd "$from" && kept "$from" | tr '\n' '\0' | xargs -0 -r cp -p --parents -t "$to.new")
+  rm -rf "$to"
+  mv "$to.new" "$to"
 }
 
 case "$verb" in
   save)
     [ -e "$dir/COMMIT" ] || { echo "campaign_store: no job in $dir (no COMMIT)" >&2; exit 2; }
-    mapfile -t pids < <(pgrep -f "^([^ ]*/)?$dir/engine/granular " || true)
+    mapfile -t pids < <(pgrep -f "^$dir/engine/granular " || true)
     resume() { ((${#pids[@]})) && kill -CONT "${pids[@]}" 2>/dev/null || :; }
     trap resume EXIT
     ((${#pids[@]})) && kill -STOP "${pids[@]}" 2>/dev/null || :
@@ -57,6 +64,7 @@ case "$verb" in
   restore)
     if [ -e "$dir/COMMIT" ]; then exit 0; fi
     [ -e "$store/COMMIT" ] || exit 0
+    mkdir -p "$(dirname "$dir")"
     copy_state "$store" "$dir"
     echo "campaign_store: $dir restored from campaign/$name (commit $(cat "$dir/COMMIT"))"
     ;;

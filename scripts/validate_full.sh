@@ -11,10 +11,16 @@
 # directory DIR/out (runs/ is the cache: a rerun reuses every finished run, so
 # an interrupted suite resumes where it stopped; report.{json,html} and
 # report_mutants.{json,html} at the end). It runs at nice 19, so that it takes only what else the machine leaves.
+# `scripts/campaign_store.sh save validate_full` keeps each finished run's
+# observables (its metadata, DIR/out/runs/*.json) in the repository
+# (campaign/validate_full/); where the default DIR is missing (a new machine),
+# the suite continues from them, with the code of their commit, and runs only
+# what they lack.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 dir="$(realpath -m "${1:-/var/lib/granular/validate_full}")"
 lanes="${2:-2}"
+[ "$dir" = /var/lib/granular/validate_full ] && "$here/scripts/campaign_store.sh" restore validate_full "$dir"
 mkdir -p "$dir/out"
 "$here/scripts/pin_commit.sh" "$dir" "$lanes" validate_full native scenes compare lammps_cases yade_cases CMakeLists.txt
 cd "$dir/src"

@@ -251,3 +251,35 @@ def test_a_run_in_a_group_of_its_own_keeps_the_drivers_niceness():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=validate.ROOT, check=True)
     before, after, mine = out.stdout.split()
     assert before == "0" and after == mine != "0", out
+
+
+def test_a_run_kept_as_its_observables_counts_until_the_analysis_changes(tiny_suite, tmp_path, monkeypatch):
+    """A finished run's metadata keeps its observables with the analysis that
+    computed them, so a suite restored from the metadata alone (the outputs
+    gone) reaches the same rows without running again; a changed analysis
+    runs it again."""
+    (job,) = jobs_of(tiny_suite, tmp_path)
+    first = run_job(job)
+    assert not first["cached"]
+    kept = json.loads(job.path.with_suffix(".json").read_text())["observables"]
+    assert kept["analysis"] == validate.analysis_hash()
+    fresh, steps, n = validate.observables_of(job)
+    from_file = {}
+    validate._rows_of_case(from_file, job, first)
+    job.path.unlink()
+    log = []
+    again = run_job(job, log.append)
+    assert again["cached"] and not job.path.exists(), log
+    restored = {}
+    validate._rows_of_case(restored, job, again)
+    (run_file,) = from_file["tiny"]["variants"][""]["native-paper"]["runs"]
+    (run_kept,) = restored["tiny"]["variants"][""]["native-paper"]["runs"]
+    assert run_kept["ok"] and run_kept["path"] is None
+    for k in ("slope_deg", "bands_final", "formation_rotations", "formed", "steps", "particles"):
+        assert run_kept[k] == pytest.approx(run_file[k], nan_ok=True), k
+    assert run_kept["steps"] == steps > 0 and run_kept["particles"] == n
+    assert run_kept["slope_deg"] == pytest.approx(fresh["slope_deg"], nan_ok=True)
+    # another analysis: the kept observables no longer count, the run is made again
+    monkeypatch.setattr(validate, "analysis_hash", lambda: "another")
+    rerun = run_job(job, log.append)
+    assert not rerun["cached"] and job.path.exists()
