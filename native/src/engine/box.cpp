@@ -3,6 +3,7 @@
 #include "engine/coulomb_census.hpp"
 #include "engine/health.hpp"
 #include "engine/run_control.hpp"
+#include "engine/run_members.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -129,7 +130,6 @@ template <class Sim>
 RunReport run_impl(const BoxScene& s, std::vector<BoxMember>& ms, RunDriver* driver, bool progress) {
   const std::size_t members = ms.size();
   const std::vector<Sim*> sims = member_sims<Sim>(ms, "run_boxes");
-  Sim& sim = *sims.front();  // the schedule's
   const HealthLimits health = box_health(s);
   for (Sim* v : sims) health.apply(*v);
   const long total = std::lround((s.settle + s.duration) / s.dt);
@@ -147,7 +147,7 @@ RunReport run_impl(const BoxScene& s, std::vector<BoxMember>& ms, RunDriver* dri
     if (out && c.has_big)
       c.trace_h = out->init_series(
           "trace", {{"time", 1}, {"cycle", 1}, {"box_y", 1}, {"big_position", 2}, {"big_velocity", 2}});
-    if (out) c.census_h = init_census(*out, decltype(sim.law)::kSpecies);
+    if (out) c.census_h = init_census(*out, decltype(Sim::law)::kSpecies);
   }
   auto observe = [&](std::size_t r, bool force_frame) {
     Sim& v = *sims[r];
@@ -177,86 +177,24 @@ RunReport run_impl(const BoxScene& s, std::vector<BoxMember>& ms, RunDriver* dri
                   {v.p.x[b].x(), v.p.x[b].y()}, {v.p.v[b].x(), v.p.v[b].y()}});
     }
   };
-  long start = 0;
-  for (std::size_t r = 0; r < members; ++r) {
-    Sim& v = *sims[r];
-    auto first_output = [&] { observe(r, true); };
-    const long from = driver ? begin_run(v, ms[r].ctl, {&cs[r].snap_k, &cs[r].trace_k}, "shaken-box", first_output,
-                                         [&](const CheckpointData& c) { driver->restore(r, c); })
-                             : begin_run(v, ms[r].ctl, {&cs[r].snap_k, &cs[r].trace_k}, "shaken-box", first_output);
-    if (r == 0) start = from;
-    if (from != start)
-      throw std::runtime_error(ms[r].ctl.checkpoint + ": the members' checkpoints are of different steps");
-  }
-  if (driver) driver->start();
-  std::vector<Checkpointer> checkpoints;
-  for (const BoxMember& m : ms) checkpoints.emplace_back(m.ctl);
-  std::vector<H5Output*> outs;
-  std::chrono::steady_clock::time_point t0;
-  for (std::size_t r = 0; r < members; ++r) {
-    outs.push_back(ms[r].out);
-    t0 = start_loop(*sims[r], ms[r].out);
-  }
-  auto last = t0;
-  long n = 0;
-  for (Sim* v : sims) n += static_cast<long>(v->p.size());
-  // The steps between two that observe, check or report run in one go
-  // (observe: a frame or a trace row due at the step's cycle).
-  auto acts = [&](long k, double t) {
-    const Counters& c0 = cs.front();
-    if (k % health.every == 0 || k == settle_steps || checkpoints.front().may_act_at(k) || (progress && k % 500 == 0))
-      return true;
-    if (k <= settle_steps) return false;
-    const double c = s.cycle(t);
-    return c >= (c0.snap_k + 1) * s.snapshot_every_cycles || c * s.trace_per_cycle >= c0.trace_k + 1;
-  };
-  // The XDMF description beside each output (io/xdmf.hpp) is rewritten after
-  // each checkpoint and where the run ends: at its last step, on SIGINT or
-  // SIGTERM (Interrupted), or when it stops unstable (UnstableError).
-  run_loop(outs, progress, [&] {
-    for (long k = start; k < total;) {
-      const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
-      advance_run(driver, sim, next - k);
-      k = next;
-      if (k % health.every == 0 || k == total) check_run_health(driver, health, [&] { check_box_health(sim, health); });
-      for (std::size_t r = 0; r < members; ++r) observe(r, k == settle_steps || k == total);
-      // Every member checkpoints before a stop signal ends the run.
-      std::optional<Interrupted> stop;
-      for (std::size_t r = 0; r < members; ++r) {
-        const Sim& v = *sims[r];
-        H5Output* out = ms[r].out;
-        const long saved = checkpoints[r].written();
-        try {
-          if (driver)
-            checkpoints[r].after_step(v, out, {cs[r].snap_k, cs[r].trace_k}, k == total,
-                                      [&](CheckpointData& c) { driver->capture(r, c); });
-          else
-            checkpoints[r].after_step(v, out, {cs[r].snap_k, cs[r].trace_k}, k == total);
-        } catch (const Interrupted& e) {
-          if (!stop) stop = e;
-        }
-        if (out && checkpoints[r].written() != saved && k != total) out->write_xdmf();  // current with the checkpoint
-      }
-      if (stop) throw *stop;
-      if (progress && (k % 500 == 0 || k == total)) {
-        const auto now = std::chrono::steady_clock::now();
-        if (now - last > std::chrono::milliseconds(500) || k == total) {
-          last = now;
-          const double el = std::chrono::duration<double>(now - t0).count();
-          std::fprintf(stderr, "\r  t = %.2f / %.2f s (%s)   %.3g particle-steps/s   %.0f s left   ", sim.time,
-                       s.settle + s.duration, k <= settle_steps ? "settling" : "shaking",
-                       (k - start) * static_cast<double>(n) / el, el / (k - start) * (total - k));
-          std::fflush(stderr);
-        }
-      }
-    }
-  });
-  long written = 0;
-  for (const Checkpointer& c : checkpoints) written += c.written();
-  RunReport r = run_report(sim, std::max(0L, total - start), t0, written);
-  r.particles = n;
-  r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(r.steps) * n / r.seconds : 0.0;
-  return r;
+  auto part = make_run_part(
+      "shaken-box", 500, [&](std::size_t r) { return std::array<long*, 2>{&cs[r].snap_k, &cs[r].trace_k}; },
+      [&](std::size_t r) { observe(r, true); },
+      [&](std::size_t r, long k) { observe(r, k == settle_steps || k == total); },
+      // a frame or a trace row due at the step's cycle
+      [&](long k, double t) {
+        if (k == settle_steps) return true;
+        if (k < settle_steps) return false;
+        const Counters& c0 = cs.front();
+        const double c = s.cycle(t);
+        return c >= (c0.snap_k + 1) * s.snapshot_every_cycles || c * s.trace_per_cycle >= c0.trace_k + 1;
+      },
+      [&](Sim& v) { check_box_health(v, health); },
+      [&](const Sim& v, double rate, double left) {
+        std::fprintf(stderr, "\r  t = %.2f / %.2f s (%s)   %.3g particle-steps/s   %.0f s left   ", v.time,
+                     s.settle + s.duration, v.step_count <= settle_steps ? "settling" : "shaking", rate, left);
+      });
+  return run_members(ms, sims, driver, progress, total, health, part);
 }
 
 // The scene's choices, one at a time, down to one alternative of BoxSim.

@@ -14,6 +14,7 @@
 #include "engine/coulomb_census.hpp"
 #include "engine/health.hpp"
 #include "engine/run_control.hpp"
+#include "engine/run_members.hpp"
 #include "scene/law_mapping.hpp"
 #include "scene/step_rule.hpp"
 
@@ -135,7 +136,6 @@ template <class Sim>
 RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, RunDriver* driver, bool progress) {
   const std::size_t members = ms.size();
   const std::vector<Sim*> sims = member_sims<Sim>(ms, "run_drums");
-  Sim& sim = *sims.front();  // the schedule's
   const HealthLimits health = drum_health<Sim>(s);
   for (Sim* v : sims) health.apply(*v);
   const long total = s.steps_per(s.rotations);
@@ -154,7 +154,7 @@ RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, RunDriver* d
     return true;
   };
   for (std::size_t r = 0; r < members; ++r)
-    cs[r].census = ms[r].out ? init_census(*ms[r].out, decltype(sim.law)::kSpecies) : -1;
+    cs[r].census = ms[r].out ? init_census(*ms[r].out, decltype(Sim::law)::kSpecies) : -1;
   auto observe = [&](std::size_t r, bool final_step) {
     Sim& v = *sims[r];
     H5Output* out = ms[r].out;
@@ -174,83 +174,19 @@ RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, RunDriver* d
   };
   for (std::size_t r = 0; r < members; ++r)
     if (ms[r].out) ms[r].out->init_profile(edges);
-  long start = 0;
-  for (std::size_t r = 0; r < members; ++r) {
-    Sim& v = *sims[r];
-    auto first_output = [&] { observe(r, false); };
-    const long from = driver ? begin_run(v, ms[r].ctl, {&cs[r].snap_k, &cs[r].prof_k}, "drum", first_output,
-                                         [&](const CheckpointData& c) { driver->restore(r, c); })
-                             : begin_run(v, ms[r].ctl, {&cs[r].snap_k, &cs[r].prof_k}, "drum", first_output);
-    if (r == 0) start = from;
-    if (from != start) throw std::runtime_error(ms[r].ctl.checkpoint + ": the members' checkpoints are of different steps");
-  }
-  if (driver) driver->start();
-  std::vector<Checkpointer> checkpoints;
-  for (const DrumMember& m : ms) checkpoints.emplace_back(m.ctl);
-  std::vector<H5Output*> outs;
-  std::chrono::steady_clock::time_point t0;
-  for (std::size_t r = 0; r < members; ++r) {
-    outs.push_back(ms[r].out);
-    t0 = start_loop(*sims[r], ms[r].out);
-  }
-  auto last_print = t0;
-  long n = 0;
-  for (Sim* v : sims) n += static_cast<long>(v->p.size());
-  // The steps between two that observe, check or report run in one go.
-  auto acts = [&](long k, double) {
-    const Counters& c = cs.front();
-    return k % health.every == 0 || s.steps_per(c.prof_k * s.profile_every) <= k ||
-           s.steps_per(c.snap_k * s.snapshot_every) <= k || checkpoints.front().may_act_at(k) ||
-           (progress && k % 200 == 0);
-  };
-  // The XDMF description beside each output (io/xdmf.hpp) is rewritten after
-  // each checkpoint and where the run ends: at its last step, on SIGINT or
-  // SIGTERM (Interrupted), or when it stops unstable (UnstableError).
-  run_loop(outs, progress, [&] {
-    for (long k = start; k < total;) {
-      const long next = next_stop(k, sim.time, sim.integrator.dt, total, acts);
-      advance_run(driver, sim, next - k);
-      k = next;
-      const bool fin = k == total;
-      if (k % health.every == 0 || fin) check_run_health(driver, health, [&] { check_health(sim, health); });
-      for (std::size_t r = 0; r < members; ++r) observe(r, fin);
-      // Every member checkpoints before a stop signal ends the run.
-      std::optional<Interrupted> stop;
-      for (std::size_t r = 0; r < members; ++r) {
-        const Sim& v = *sims[r];
-        H5Output* out = ms[r].out;
-        const long saved = checkpoints[r].written();
-        try {
-          if (driver)
-            checkpoints[r].after_step(v, out, {cs[r].snap_k, cs[r].prof_k}, fin,
-                                      [&](CheckpointData& c) { driver->capture(r, c); });
-          else
-            checkpoints[r].after_step(v, out, {cs[r].snap_k, cs[r].prof_k}, fin);
-        } catch (const Interrupted& e) {
-          if (!stop) stop = e;
-        }
-        if (out && checkpoints[r].written() != saved && !fin) out->write_xdmf();  // current with the checkpoint
-      }
-      if (stop) throw *stop;
-      if (progress && (k % 200 == 0 || fin)) {
-        const auto now = std::chrono::steady_clock::now();
-        if (now - last_print > std::chrono::milliseconds(500) || fin) {
-          last_print = now;
-          const double el = std::chrono::duration<double>(now - t0).count();
-          const double rate = el > 0 ? static_cast<double>(k - start) * n / el : 0.0;
-          std::fprintf(stderr, "\r  rotation %.2f / %.2f   %.3g particle-steps/s   %s left   ", sim.time / period,
-                       s.rotations, rate, format_duration(el / (k - start) * (total - k)).c_str());
-          std::fflush(stderr);
-        }
-      }
-    }
-  });
-  long written = 0;
-  for (const Checkpointer& c : checkpoints) written += c.written();
-  RunReport r = run_report(sim, std::max(0L, total - start), t0, written);
-  r.particles = n;
-  r.particle_steps_per_second = r.seconds > 0 ? static_cast<double>(r.steps) * n / r.seconds : 0.0;
-  return r;
+  auto part = make_run_part(
+      "drum", 200, [&](std::size_t r) { return std::array<long*, 2>{&cs[r].snap_k, &cs[r].prof_k}; },
+      [&](std::size_t r) { observe(r, false); }, [&](std::size_t r, long k) { observe(r, k == total); },
+      [&](long k, double) {
+        const Counters& c = cs.front();
+        return s.steps_per(c.prof_k * s.profile_every) <= k || s.steps_per(c.snap_k * s.snapshot_every) <= k;
+      },
+      [&](Sim& v) { check_health(v, health); },
+      [&](const Sim& v, double rate, double left) {
+        std::fprintf(stderr, "\r  rotation %.2f / %.2f   %.3g particle-steps/s   %s left   ", v.time / period,
+                     s.rotations, rate, format_duration(left).c_str());
+      });
+  return run_members(ms, sims, driver, progress, total, health, part);
 }
 
 }  // namespace
