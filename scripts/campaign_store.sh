@@ -10,7 +10,8 @@
 #
 # NAME is the job; DIR defaults to /var/lib/granular/NAME. Kept: DIR/COMMIT
 # (the engine is rebuilt from it, scripts/pin_commit.sh), and
-#   table1:         DIR/jobs.txt and DIR/runs (outputs, checkpoints, logs, .done marks);
+#   table1:         DIR/jobs.txt and DIR/runs (outputs, logs, .done marks, and the
+#                   checkpoints of the runs not finished);
 #   validate_full:  each finished run's metadata with its observables,
 #                   DIR/out/runs/*.json (compare/validate.py, "kept observables"),
 #                   and the reports DIR/out/report*; not the runs' outputs.
@@ -28,7 +29,11 @@ store="$here/campaign/$name"
 kept() {  # the files of DIR to keep, relative to it
   (cd "$1" && case "$name" in
     validate_full) find . -path './out/runs/*.json' -o -path './out/report*' -type f ;;
-    *) find ./jobs.txt ./runs -type f ! -name '*.tmp' ! -name '*.resuming' 2>/dev/null ;;
+    *) find ./jobs.txt ./runs -type f ! -name '*.tmp' ! -name '*.resuming' 2>/dev/null |
+         while read -r f; do  # a finished run's last checkpoint is not needed to go on
+           case "$f" in *.h5.ckpt) [ -e "${f%.ckpt}.done" ] && continue ;; esac
+           echo "$f"
+         done ;;
   esac) | sed 's|^\./||'
 }
 
