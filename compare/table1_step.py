@@ -64,6 +64,8 @@ def observe_one(path, dt, seed, done):
         slope = float(obs["surface"].slope_angle_deg)
     except (KeyError, TypeError, ValueError):
         slope = None
+    if slope is not None and not np.isfinite(slope):  # no snapshot past the first rotations yet
+        slope = None
     complete = done or reached >= ROTATIONS - 0.5
     return {"file": str(path), "dt": dt, "seed": seed, "rotations_reached": reached, "complete": complete,
             "bands_1000": int(np.bincount(last).argmax()) if last.size and complete else None,
@@ -132,7 +134,7 @@ def step_lines(check):
         merge = _f(r["first_merge"]) if r["first_merge"] is not None else ("none" if r["complete"] else "–")
         lines.append(f"| {r['dt']:g} | {r['seed']} | {r['rotations_reached']:.0f}"
                      f"{'' if r['complete'] else ' (running)'} | {_f(r['formation_rotations'])} | "
-                     f"{_f(r['bands_1000'], 'd')} | {merge} | {ev} | {_f(r['slope_deg'], '.1f')}° |")
+                     f"{_f(r['bands_1000'], 'd')} | {merge} | {ev} | {_f(r['slope_deg'], '.1f')}{'°' if r['slope_deg'] is not None else ''} |")
     lines += ["", f"| observable ({large:g} − {small:g}) | runs | difference | 90 % interval | margin | verdict |",
               "|---|---|---|---|---|---|"]
     for k, label in (("bands_1000", "bands at rotation 1000"), ("slope_deg", "slope (°)")):
