@@ -32,6 +32,9 @@ def drum_schedule(scene: dict):
             target.add(steps_per(j * every))
             j += 1
         target.add(total)
+    # run.final_snapshots: N - 1 more before the final state, run.final_snapshot_every apart
+    rotations, gap = float(run["rotations"]), float(run.get("final_snapshot_every", 5.0))
+    snap_steps |= {steps_per(rotations - k * gap) for k in range(1, int(run.get("final_snapshots", 0)))}
     return total, snap_steps, prof_steps, edges
 
 

@@ -378,7 +378,8 @@ def resolved_scene(job):
 # reproduces a run made before the key existed (as kKeysAddedLater in
 # native/src/app/main.cpp does for checkpoints): a cached resolution without
 # the key still matches a scene that resolves it to this value.
-KEYS_ADDED_LATER = {("box", "walls"): "particles", ("particles", "rotation"): True}
+KEYS_ADDED_LATER = {("box", "walls"): "particles", ("particles", "rotation"): True,
+                    ("run", "final_snapshots"): 0, ("run", "final_snapshot_every"): 5.0}
 
 # Earlier names, for runs cached under them: a row's runs are also looked for
 # under its earlier names (OLD_ROW_NAMES), and a cached resolution that holds

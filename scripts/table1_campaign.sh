@@ -22,7 +22,8 @@
 # each checkpoints every 5 minutes and resumes from its checkpoint
 # (scripts/campaign.sh). Output at the paper's cadence and small enough to keep
 # in the repository: ten snapshots a run, and the axial profile every rotation
-# (every k-th rotation, k = rotations/5000 rounded, for runs longer than 7500).
+# (every k-th rotation, k = rotations/5000 rounded, for runs longer than 7500);
+# #J and #K also the last 10 configurations, 5 rotations apart (Fig. 9).
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 status=0
@@ -59,7 +60,9 @@ snap = max(10, round(rot / 10 / 10) * 10)
 prof = max(1, round(rot / 5000))
 print(d["particles"] * d["steps_total"], sys.argv[1], sys.argv[2], rot, snap, prof)' "$dir/runs/$(basename "$scene" .toml).h5" "$scene"
   done | sort -g | while read -r _ out scene rot snap prof; do
-    echo "$out $scene --set run.rotations=$rot --set run.snapshot_every=$snap --set run.profile_every=$prof --checkpoint-every 5"
+    # #J and #K: the paper's Fig. 9 averages 10 configurations near the end
+    case "$(basename "$scene")" in J.toml|K.toml) final="--set run.final_snapshots=10" ;; *) final="" ;; esac
+    echo "$out $scene --set run.rotations=$rot --set run.snapshot_every=$snap --set run.profile_every=$prof $final --checkpoint-every 5"
   done >>"$jobs"
 fi
 

@@ -4,7 +4,9 @@ computed from its snapshots, and the command line's behaviour on bad input
 and on an unstable run."""
 import json
 import os
+import signal
 import subprocess
+import time
 from pathlib import Path
 
 import h5py
@@ -70,6 +72,36 @@ def test_drum_output_lands_on_its_own_steps(short_run):
     steps_per = lambda rot: np.rint(rot * run.rotation_period / dt).astype(np.int64)  # noqa: E731
     np.testing.assert_array_equal(run.frames.step, steps_per(np.arange(5) * 0.1))
     np.testing.assert_array_equal(np.rint(run.profile.time / dt).astype(np.int64), steps_per(np.arange(9) * 0.05))
+
+
+def test_final_snapshots_land_near_the_end(tmp_path):
+    """run.final_snapshots = N: besides the snapshots every run.snapshot_every,
+    the final state and N - 1 more, run.final_snapshot_every rotations apart
+    before it, each on the step nearest its rotation count; resumed from a
+    checkpoint taken before them, the run writes the same frames."""
+    sets = ["--set", "drum.length=16", "--set", "run.rotations=1.2", "--set", "run.snapshot_every=0.5",
+            "--set", "run.final_snapshots=4", "--set", "run.final_snapshot_every=0.1"]
+    out = tmp_path / "final.h5"
+    granular("run", SCENE_A, "-o", out, "--threads", "1", *sets)
+    run = read_run(out)
+    dt = run.scene["integrator"]["dt"]
+    steps_per = lambda rot: np.rint(np.asarray(rot) * run.rotation_period / dt).astype(np.int64)  # noqa: E731
+    np.testing.assert_array_equal(run.frames.step, steps_per([0, 0.5, 0.9, 1.0, 1.1, 1.2]))
+    # the same run stopped by SIGTERM before the snapshots near the end, then resumed
+    part = tmp_path / "part.h5"
+    p = subprocess.Popen([str(BIN), "run", str(SCENE_A), "-o", str(part), "--threads", "1", "-q", *sets,
+                          "--checkpoint-steps", "100"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.time() + 120
+    while not Path(f"{part}.ckpt").exists() and time.time() < deadline and p.poll() is None:
+        time.sleep(0.01)
+    p.send_signal(signal.SIGTERM)
+    p.wait(timeout=120)
+    if p.returncode == 0:
+        pytest.skip("the run ended before it could be interrupted")
+    granular("run", SCENE_A, "-o", part, "--threads", "1", *sets, "--resume")
+    resumed = read_run(part)
+    np.testing.assert_array_equal(resumed.frames.step, run.frames.step)
+    np.testing.assert_array_equal(resumed.frames.position[-2], run.frames.position[-2])
 
 
 def test_box_trace_and_frames_land_on_the_step_that_crosses(tmp_path):

@@ -418,6 +418,8 @@ void flatten(const nlohmann::json& j, const std::string& prefix, std::map<std::s
 const std::map<std::string, std::string> kKeysAddedLater = {
     {"box.walls", "\"particles\""},
     {"particles.rotation", "true"},
+    {"run.final_snapshots", "0"},
+    {"run.final_snapshot_every", "5.0"},
 };
 
 // A run resumes only with the scene it was started with; only its length

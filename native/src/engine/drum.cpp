@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -148,6 +149,8 @@ RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, RunDriver* d
     int census = -1;
   };
   std::vector<Counters> cs(members);
+  const std::vector<long> final_frames = s.final_snapshot_steps();
+  auto final_frame = [&](long k) { return std::binary_search(final_frames.begin(), final_frames.end(), k); };
   auto due = [&](const Sim& v, long& k, double every) {
     if (v.step_count < s.steps_per(k * every)) return false;
     while (s.steps_per(k * every) <= v.step_count) ++k;
@@ -161,7 +164,7 @@ RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, RunDriver* d
     Counters& c = cs[r];
     ScopedPhase ph(v.timers, Phase::observe);
     const bool prof = due(v, c.prof_k, s.profile_every) || final_step;
-    const bool snap = due(v, c.snap_k, s.snapshot_every) || final_step;
+    const bool snap = due(v, c.snap_k, s.snapshot_every) || final_step || final_frame(v.step_count);
     if (driver && (prof || (out && snap))) driver->fetch(r);
     if (prof) {
       check_inside(v, s);
@@ -179,7 +182,8 @@ RunReport run_impl(const DrumScene& s, std::vector<DrumMember>& ms, RunDriver* d
       [&](std::size_t r) { observe(r, false); }, [&](std::size_t r, long k) { observe(r, k == total); },
       [&](long k, double) {
         const Counters& c = cs.front();
-        return s.steps_per(c.prof_k * s.profile_every) <= k || s.steps_per(c.snap_k * s.snapshot_every) <= k;
+        return s.steps_per(c.prof_k * s.profile_every) <= k || s.steps_per(c.snap_k * s.snapshot_every) <= k ||
+               final_frame(k);
       },
       [&](Sim& v) { check_health(v, health); },
       [&](const Sim& v, double rate, double left) {

@@ -17,6 +17,12 @@ double DrumScene::rotation_period() const { return 2.0 * M_PI / omega; }
 
 long DrumScene::steps_per(double rot) const { return std::lround(rot * rotation_period() / dt); }
 
+std::vector<long> DrumScene::final_snapshot_steps() const {
+  std::vector<long> steps;
+  for (long k = final_snapshots - 1; k >= 1; --k) steps.push_back(steps_per(rotations - k * final_snapshot_every));
+  return steps;
+}
+
 namespace {
 
 // Only the required keys: reading it lists every key a drum scene has.
@@ -134,6 +140,14 @@ DrumScene read_fields(SceneFile& f) {
   s.profile_every = f.positive("run.profile_every", f.number("run.profile_every", 0.5));
   s.profile_slice_width = f.positive("run.profile_slice_width", f.number("run.profile_slice_width", 1.0));
   if (s.profile_slice_width > s.length) f.fail("run.profile_slice_width", "is wider than the drum");
+  s.final_snapshots = f.integer("run.final_snapshots", 0);
+  if (s.final_snapshots < 0) f.fail("run.final_snapshots", "must be 0 or more");
+  s.final_snapshot_every = f.positive("run.final_snapshot_every", f.number("run.final_snapshot_every", 5.0));
+  if (s.final_snapshots > 1 && (s.final_snapshots - 1) * s.final_snapshot_every >= s.rotations)
+    f.fail("run.final_snapshots", std::to_string(s.final_snapshots) + " snapshots " +
+                                      number_text(s.final_snapshot_every) +
+                                      " rotations apart reach back to the run's start (run.rotations " +
+                                      number_text(s.rotations) + ")");
 
   s.paper_n = f.integer("paper.N", 0);
   s.paper_rotations = f.number("paper.rotations", 0.0);

@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/particles.hpp"
 #include "scene/scene_file.hpp"
@@ -35,6 +36,11 @@ struct DrumScene {
   double dt = 0.01, skin = 0.4;  // dt: drum_scene.cpp, the default step
   // [run]: lengths in rotations
   double rotations = 1.0, snapshot_every = 10.0, profile_every = 0.5, profile_slice_width = 1.0;
+  // Snapshots near the end besides those every snapshot_every: the final
+  // state and final_snapshots - 1 more, final_snapshot_every rotations apart
+  // before it (the paper's Fig. 9: 10 configurations near the end).
+  long final_snapshots = 0;
+  double final_snapshot_every = 5.0;
   // [paper]: Table I reference values, reported, not used by the dynamics
   long paper_n = 0;
   double paper_rotations = 0.0;
@@ -42,6 +48,7 @@ struct DrumScene {
 
   double rotation_period() const;
   long steps_per(double rotations) const;  // steps covering that many rotations
+  std::vector<long> final_snapshot_steps() const;  // the steps of the snapshots near the end, ascending
 };
 
 DrumScene read_drum_scene(SceneFile& f);
