@@ -69,11 +69,17 @@ TEST(Determinism, TailTasksRunByEitherThreadGiveTheSameBits) {
   long taken_free = 0;
   const auto free_run = run_small_drum(2, 3, -1, 0, &taken_free);
   for (int stalled : {0, 1}) {
-    long taken = 0;
-    const auto a = run_small_drum(2, 3, stalled, 300, &taken, 1);
-    ASSERT_EQ(a.size(), free_run.size());
     // The test has teeth only if the stall moved tasks: at 300 us a step the
-    // other thread finishes its own block first nearly every step.
+    // other thread finishes its own block first nearly every step, unless the
+    // machine is busy enough to deschedule that thread too (seen under
+    // ThreadSanitizer beside two other jobs: 578 tasks taken); up to three tries.
+    long taken = 0;
+    std::vector<double> a;
+    for (int attempt = 0; attempt < 3 && taken <= 600; ++attempt) {
+      taken = 0;
+      a = run_small_drum(2, 3, stalled, 300, &taken, 1);
+    }
+    ASSERT_EQ(a.size(), free_run.size());
     EXPECT_GT(taken, 600) << "thread " << stalled << " stalled";
     EXPECT_EQ(0, std::memcmp(a.data(), free_run.data(), a.size() * sizeof(double)))
         << "thread " << stalled << " stalled: " << taken << " tail tasks taken (" << taken_free << " without the stall)";
