@@ -80,11 +80,14 @@ run() {
       echo "  $name failed: $(tail -n 3 "$out/bench_$name.err")"; status=1; }
   }
   bench gpu_T scenes/drum/T.toml --device gpu --rotations 0.5 --settle 0.25 --repeat 3
+  bench gpu_T_ids scenes/drum/T.toml --device gpu --gpu-memory-order ids --rotations 0.5 --settle 0.25 --repeat 3
   bench gpu_A scenes/drum/A.toml --device gpu --rotations 2 --settle 0.5 --repeat 3
   bench gpu_A_x32 scenes/drum/A.toml --device gpu --replicas 32 --rotations 1 --settle 0.5 --repeat 3
   for len in 27.5 275 2750 27500 275000; do
     bench "gpu_size_L$len" scenes/drum/A.toml --device gpu --set drum.length=$len --rotations 0.05 --settle 0.02 --repeat 2
   done
+  bench gpu_size_L27500_ids scenes/drum/A.toml --device gpu --gpu-memory-order ids --set drum.length=27500 \
+    --rotations 0.05 --settle 0.02 --repeat 2
   echo "gpu_check: the CPU engine on the machine's cores, beside it"
   bench cpu_T scenes/drum/T.toml --threads 1 "$(nproc)" --rotations 0.1 --settle 0.25 --repeat 3 --ceiling "$(nproc)"
   bench cpu_A scenes/drum/A.toml --threads 1 "$(nproc)" --rotations 0.5 --settle 0.5 --repeat 3 --ceiling "$(nproc)"
@@ -98,7 +101,7 @@ for f in sorted(out.glob("bench_*.json")):
         continue
     for r in rows if isinstance(rows, list) else [rows]:
         print(f"{f.stem[6:]:>18}  particles {r.get('particles', '?'):>9}  threads {r.get('threads', '-'):>3}  "
-              f"replicas {r.get('replicas', 1):>3}  particle-steps/s {r.get('particle_steps_per_second', float('nan')):.3g}")
+              f"replicas {r.get('replicas', 1):>3}  order {r.get('memory_order', '-'):>5}  particle-steps/s {r.get('particle_steps_per_second', float('nan')):.3g}")
 EOF
   if [ "$status" -ne 0 ]; then echo "gpu_check: FAILED"; else echo "gpu_check: passed"; fi
   return "$status"

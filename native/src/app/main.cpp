@@ -6,6 +6,7 @@
 //   granular info SCENE [--set key=value]... [--json]
 //   granular bench SCENE [--threads N]... [--settle X] [--rotations R | --seconds S] [--repeat K]
 //                  [--ceiling N] [--json] [--device cpu|gpu|gpu-host] [--replicas K]
+//                  [--gpu-memory-order cells|ids]
 //   granular devices [--json]
 // SCENE is a drum (Rapaport 2002), shaken-box (Poeschel and Herrmann 1995) or
 // particles (explicit spheres and plane walls, docs/particles_scene.md) scene
@@ -936,7 +937,7 @@ struct GpuBenchStepper {
 };
 
 GpuBenchStepper gpu_bench_stepper(const Loaded& l, const std::string& device, int replicas, double settle,
-                                  double length) {
+                                  double length, bool reorder) {
   GpuBenchStepper b;
   if (l.box) {
     const BoxScene& s = *l.box;
@@ -945,6 +946,7 @@ GpuBenchStepper gpu_bench_stepper(const Loaded& l, const std::string& device, in
       BoxScene sk = s;
       sk.seed = s.seed + static_cast<std::uint64_t>(k);
       models.push_back(gpu::box_model(make_box(sk)));
+      models.back().reorder = reorder;
     }
     check_device_memory(device, models);
     b.box = box_stepper_factory(device)(models);
@@ -961,6 +963,7 @@ GpuBenchStepper gpu_bench_stepper(const Loaded& l, const std::string& device, in
     DrumSim sim = make_drum(sk);
     if (k == 0) check_device_memory(device, sim, replicas);
     models.push_back(gpu::drum_model(sim));
+    models.back().reorder = reorder;
   }
   b.drum = stepper_factory(device)(models);
   for (const auto& m : models) b.particles += static_cast<long>(m.p.size());
@@ -973,10 +976,13 @@ GpuBenchStepper gpu_bench_stepper(const Loaded& l, const std::string& device, in
 // of a drum or shaken-box scene (particles.seed + k), settled `settle`
 // rotations or seconds on the device, then `rounds` stretches of `length`
 // rotations or seconds timed one after another; the median stretch is
-// reported in the CPU bench's fields.
+// reported in the CPU bench's fields. memory_order: "cells" (the particles
+// moved in memory to their cells' order at each list build, as a run does)
+// or "ids" (kept in the order they were made, to measure what the order is
+// worth).
 int run_gpu_bench(const Loaded& l, const std::string& device, int replicas, int rounds, double settle,
-                  double length, bool as_json) {
-  GpuBenchStepper b = gpu_bench_stepper(l, device, replicas, settle, length);
+                  double length, const std::string& memory_order, bool as_json) {
+  GpuBenchStepper b = gpu_bench_stepper(l, device, replicas, settle, length, memory_order == "cells");
   GpuBenchStepper* const stepper = &b;
   const long particles = b.particles;
   stepper->advance(b.settle_steps);
@@ -1000,6 +1006,7 @@ int run_gpu_bench(const Loaded& l, const std::string& device, int replicas, int 
                                                      {"device", device},
                                                      {"backend", stepper->backend()},
                                                      {"replicas", replicas},
+                                                     {"memory_order", memory_order},
                                                      {"threads", device == "gpu-host" ? omp_get_max_threads() : 0},
                                                      {"copies", 1},
                                                      {"particles", particles},
@@ -1015,10 +1022,10 @@ int run_gpu_bench(const Loaded& l, const std::string& device, int replicas, int 
   if (as_json)
     std::cout << res.dump(2) << "\n";
   else
-    std::printf("scene %s  device %s (%s)  %d replica(s), %ld particles  %.3e particle-steps/s  (median of %d, "
-                "range %.3e-%.3e)  %ld neighbour-list builds in %ld steps\n",
-                l.name().c_str(), device.c_str(), stepper->backend(), replicas, particles, rates[med], rounds,
-                rates[by.front()], rates[by.back()], builds[med], steps);
+    std::printf("scene %s  device %s (%s)  %d replica(s), %ld particles, memory in %s order  %.3e "
+                "particle-steps/s  (median of %d, range %.3e-%.3e)  %ld neighbour-list builds in %ld steps\n",
+                l.name().c_str(), device.c_str(), stepper->backend(), replicas, particles, memory_order.c_str(),
+                rates[med], rounds, rates[by.front()], rates[by.back()], builds[med], steps);
   return 0;
 }
 
@@ -1102,6 +1109,11 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"cpu", "gpu", "gpu-host"}));
   bench->add_option("--replicas", bench_replicas, "GPU engine: K seeds of the scene stepped side by side")
       ->check(CLI::PositiveNumber);
+  std::string bench_memory_order = "cells";
+  auto* memory_order_opt = bench->add_option("--gpu-memory-order", bench_memory_order,
+                    "GPU engine: particles moved in memory to their cells' order at each list build (cells, as a run "
+                    "does) or kept in the order they were made (ids)")
+      ->check(CLI::IsMember({"cells", "ids"}));
 
   bool devices_json = false;
   auto* devices = app.add_subcommand("devices", "where --device can run: cpu, gpu-host, and gpu if a CUDA device is visible");
@@ -1138,9 +1150,11 @@ int main(int argc, char** argv) {
       const Loaded l = load(scene_path, sets);
       if (l.particles) throw UsageError(scene_path + ": granular bench times drum and shaken-box scenes only");
       check_device(bench_device, bench_replicas, l);
+      if (bench_device == "cpu" && memory_order_opt->count() > 0)
+        throw UsageError("--gpu-memory-order: the GPU engine's memory order (--device gpu or gpu-host)");
       if (bench_device != "cpu")
         return run_gpu_bench(l, bench_device, std::max(1, bench_replicas), repeat, settle,
-                             l.drum ? bench_rot : bench_seconds, bench_json);
+                             l.drum ? bench_rot : bench_seconds, bench_memory_order, bench_json);
       if (bench_threads.empty()) bench_threads = {1, omp_get_num_procs()};
       return run_bench(l, bench_threads, repeat, ceiling, settle, l.drum ? bench_rot : bench_seconds, bench_json);
     }

@@ -81,7 +81,11 @@ struct BoxModel {
   // the positions the neighbour list was last built from (the list is
   // rebuilt from them, row for row the list in use). p.f, p.tq are the last
   // step's forces either way, used as they are.
-  Column<Eigen::Vector2d> x_ref;
+  Column<Eigen::Vector2d> x_ref;  // Whether the stepper moves the particles in memory to the order of their
+  // cells at each neighbour-list build (gpu/kernel_stepper.hpp): the same
+  // results either way; off, memory keeps the order of p (for measuring
+  // what the order is worth: granular bench --gpu-memory-order ids).
+  bool reorder = true;
 };
 
 // Advances the state of one or several BoxModels (replicas: boxes of one

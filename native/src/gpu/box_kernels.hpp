@@ -427,6 +427,7 @@ class BoxKernels final : public KernelStepper<2> {
       }
     }
     anchor_.upload(anchor);
+    moved_with_particles(anchor_, 2);
     if constexpr (kGear) {
       for (int k = 0; k < 4; ++k) {
         std::vector<const Column<ParticleStore<2>::V>*> cols;
@@ -438,6 +439,8 @@ class BoxKernels final : public KernelStepper<2> {
         for (const BoxModel& m : ms) cols.push_back(&m.p.aux_a[k]);
         upload_column(cols, q_[k]);
       }
+      for (auto& r : r_) moved_with_particles(r, 2);
+      for (auto& q : q_) moved_with_particles(q, 1);
     }
   }
 

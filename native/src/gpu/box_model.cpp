@@ -71,8 +71,9 @@ DeviceSizing box_sizing(const std::vector<BoxModel>& ms) {
     const auto within = static_cast<std::size_t>(std::ceil(std::max(0.0, 4.0 * 0.91 * ratio * ratio - 1.0)));
     columns = std::max(columns, within + within / 4 + 8);
   }
-  // The box keeps 15 doubles a particle (2D), the anchors and Gear's columns
-  // 15 more: 7 beyond device_bytes' 23, counted as 14 four-byte words.
+  // The box keeps 15 doubles a particle (2D) and the spare column (3), the
+  // anchors and Gear's columns 15 more: 7 beyond device_bytes' 26, counted as
+  // 14 four-byte words.
   z.list_columns = columns + 14;
   return z;
 }

@@ -58,12 +58,16 @@ struct DrumModel {
   // half the smallest diameter, or the scene's speed limit times dt); a step
   // that moves one further stops the stepper (StepUnstable).
   double max_step_move = std::numeric_limits<double>::infinity();
-  ParticleStore<3> p;  // the state, in the order the stepper keeps
+  ParticleStore<3> p;  // the state; a particle's index is its id in the stepper
   // Empty: a new start (the list is built from p.x and the forces computed).
   // Otherwise a resumed one: the positions the neighbour list was last built
   // from (the list is rebuilt from them, row for row the list in use), and
   // p.f, p.tq are the last step's forces, used as they are.
-  Column<Eigen::Vector3d> x_ref;
+  Column<Eigen::Vector3d> x_ref;  // Whether the stepper moves the particles in memory to the order of their
+  // cells at each neighbour-list build (gpu/kernel_stepper.hpp): the same
+  // results either way; off, memory keeps the order of p (for measuring
+  // what the order is worth: granular bench --gpu-memory-order ids).
+  bool reorder = true;
 };
 
 // Advances the state of one or several DrumModels (replicas) on one backend
@@ -87,11 +91,12 @@ std::size_t cuda_free_bytes();
 
 // The device memory a GPU drum needs, as the stepper (gpu/drum_kernels.hpp)
 // allocates it: per particle the state (x, v, w, f, tq, d, 1/m, 1/I, the
-// list's reference positions, two reductions' inputs: 23 doubles), the
-// species, replica and cell-sort words (7 four-byte words) and the sort's
+// list's reference positions, two reductions' inputs: 23 doubles) and the
+// spare column the particles are moved through (3 doubles), the species,
+// replica, id, slot and cell-sort words (12 four-byte words) and the sort's
 // temporary storage (cub's radix sort: about two keys and two values per
-// particle), per cell of every replica its range (two words), and the full
-// neighbour list, list_columns four-byte indices per particle.
+// particle), per cell of every replica its key and range (three words), and
+// the full neighbour list, list_columns four-byte indices per particle.
 struct DeviceSizing {
   std::size_t particles = 0;     // all replicas together
   std::size_t cells = 0;         // all replicas together

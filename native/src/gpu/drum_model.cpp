@@ -28,7 +28,7 @@ DrumModel drum_model(const DrumSim& sim) {
 }
 
 std::size_t device_bytes(const DeviceSizing& z) {
-  constexpr std::size_t kDoubles = 23, kWords = 7, kSortWords = 4, kCellWords = 2;
+  constexpr std::size_t kDoubles = 26, kWords = 12, kSortWords = 4, kCellWords = 3;
   return z.particles * (kDoubles * sizeof(double) + (kWords + kSortWords + z.list_columns) * sizeof(std::uint32_t)) +
          z.cells * kCellWords * sizeof(std::uint32_t);
 }

@@ -9,6 +9,14 @@
 // more than skin/2 since the build) or the step stops (a move beyond
 // max_step_move, or one that is not finite: StepUnstable).
 //
+// Particles are held in slots, in the models' order at the start and, with
+// reordering on (the models' `reorder`, the default), moved at each list
+// build to the order of their cells along the list's space-filling curve
+// (gpu/neighbor_kernels.hpp), so that neighbours lie near each other in
+// memory. The ids (the models'
+// order) go with them; download and reference_positions return the models'
+// order, and the results are the same bits either way.
+//
 // A model (DrumModel, BoxModel) gives p, x_ref, time, step_count, dt,
 // gravity, skin, lo, hi and max_step_move; the scene's stepper adds its walls,
 // its integrator's columns and its kernels.
@@ -30,6 +38,40 @@
 namespace granular::gpu {
 inline namespace GRANULAR_EXEC_NS {
 
+// Slot k of out takes slot from[k] of in, component by component.
+template <class T>
+struct Gather {
+  const T* in;
+  T* out;
+  const std::uint32_t* from;
+  unsigned n;
+  int components;
+  GRANULAR_HD void operator()(unsigned k) const {
+    for (int a = 0; a < components; ++a) out[a * n + k] = in[a * n + from[k]];
+  }
+};
+// in's components copied to out, slot by slot.
+template <class T>
+struct Copy {
+  const T* in;
+  T* out;
+  unsigned n;
+  int components;
+  GRANULAR_HD void operator()(unsigned k) const {
+    for (int a = 0; a < components; ++a) out[a * n + k] = in[a * n + k];
+  }
+};
+// Slot k now holds the k-th sorted id.
+struct TakeIds {
+  const std::uint32_t* sorted;
+  std::uint32_t* id;
+  std::uint32_t* slot_of;
+  GRANULAR_HD void operator()(unsigned k) const {
+    id[k] = sorted[k];
+    slot_of[sorted[k]] = k;
+  }
+};
+
 template <int Dim>
 class KernelStepper : public Stepper<Dim> {
  public:
@@ -49,6 +91,8 @@ class KernelStepper : public Stepper<Dim> {
     download_column(x_ref_, off, out);
     return out;
   }
+
+  std::vector<std::uint32_t> memory_order() const override { return id_.download(); }
 
   int replicas() const override { return static_cast<int>(k_); }
   double time() const override { return time_; }
@@ -76,6 +120,7 @@ class KernelStepper : public Stepper<Dim> {
       offsets_.push_back(static_cast<std::uint32_t>(total));
     }
     n_ = static_cast<unsigned>(total);
+    reorder_ = m.reorder;
     dt_ = m.dt;
     skin_ = m.skin;
     step_lim2_ = std::numeric_limits<double>::infinity();
@@ -100,6 +145,10 @@ class KernelStepper : public Stepper<Dim> {
       for (std::uint32_t i = offsets_[r]; i < offsets_[r + 1]; ++i) rep[i] = r;
     replica_.upload(rep);
     offsets_dev_.upload(offsets_);
+    std::vector<std::uint32_t> ids(n_);
+    for (unsigned i = 0; i < n_; ++i) ids[i] = i;
+    id_.upload(ids);
+    slot_of_.upload(ids);
     disp2_.resize(n_);
     resumed_ = !m.x_ref.empty();
     renew_host_.assign(k_, resumed_ ? 0u : 1u);
@@ -113,6 +162,24 @@ class KernelStepper : public Stepper<Dim> {
     } else {
       x_ref_.resize(Dim * static_cast<std::size_t>(n_));
     }
+    moved_with_particles(x_, Dim);
+    moved_with_particles(v_, Dim);
+    moved_with_particles(w_, kAngDim<Dim>);
+    moved_with_particles(f_, Dim);
+    moved_with_particles(t_, kAngDim<Dim>);
+    moved_with_particles(d_, 1);
+    moved_with_particles(inv_m_, 1);
+    moved_with_particles(inv_i_, 1);
+    moved_with_particles(x_ref_, Dim);
+  }
+
+  // A per-particle array (`components` columns of n_ values, component-major)
+  // that reordering moves with the particles; the scene's stepper adds its
+  // own (the box's anchors and Gear's derivatives). An empty array is left
+  // alone.
+  void moved_with_particles(DeviceArray<double>& a, int components) {
+    if (components > kMostComponents) throw std::logic_error(who_ + ": a per-particle array of too many components");
+    moved_.push_back({&a, components});
   }
 
   // The list's cells over the domain [lo, hi), each replica's sized for its
@@ -137,11 +204,14 @@ class KernelStepper : public Stepper<Dim> {
     list_.reserve(grids, n_, cap, who_);
   }
 
-  // The list built for the replicas marked in renew_host_.
+  // The list built for the replicas marked in renew_host_, the particles
+  // moved to the sorted order first where reordering is on.
   template <class Law, class Domain, class Filter>
   void build(const Domain& domain, const Filter& filter) {
     renew_.upload(renew_host_);
-    list_.template build<Law>(positions(), replica_.data(), renew_.data(), domain, filter, skin_, scratch_);
+    list_.sort(positions(), replica_.data(), renew_.data(), id_.data(), scratch_);
+    if (reorder_) move_to_sorted_order();
+    list_.template list<Law>(positions(), replica_.data(), slot_of_.data(), domain, filter, skin_, scratch_);
   }
 
   // After a step's first stage, from each particle's squared displacement
@@ -162,6 +232,28 @@ class KernelStepper : public Stepper<Dim> {
       any = any || renew_host_[r];
     }
     return any;
+  }
+
+  // Every particle moved to its place in the list's sorted order: slot k
+  // takes the particle of the k-th sorted id, with every array registered by
+  // moved_with_particles and the species, each array in place (its address
+  // does not change, so the kernels' pointers stay valid); the ids and slots
+  // follow. The replicas keep their ranges of slots (their cells' keys are in
+  // replica order).
+  void move_to_sorted_order() {
+    const std::uint32_t* sorted = list_.sorted_ids();
+    from_.resize(n_);
+    for_each(n_, SlotsOf{sorted, slot_of_.data(), from_.data()});
+    spare_.resize(kMostComponents * static_cast<std::size_t>(n_));
+    for (const Moved& m : moved_) {
+      if (m.a->size() == 0) continue;
+      for_each(n_, Gather<double>{m.a->data(), spare_.data(), from_.data(), n_, m.components});
+      for_each(n_, Copy<double>{spare_.data(), m.a->data(), n_, m.components});
+    }
+    spare_species_.resize(n_);
+    for_each(n_, Gather<std::int32_t>{species_.data(), spare_species_.data(), from_.data(), n_, 1});
+    for_each(n_, Copy<std::int32_t>{spare_species_.data(), species_.data(), n_, 1});
+    for_each(n_, TakeIds{sorted, id_.data(), slot_of_.data()});
   }
 
   // health_ sized for a kernel's per-particle worst overlaps.
@@ -213,11 +305,14 @@ class KernelStepper : public Stepper<Dim> {
     out.upload(h);
   }
   // The component-major array's particles [off, off + col.size()) into col.
+  // The component-major array's particles of ids [off, off + col.size())
+  // into col, in id order, wherever they are held.
   template <class E>
   void download_column(const DeviceArray<double>& in, unsigned off, Column<E>& col) const {
     const auto h = in.download();
+    const auto slot = slot_of_.download();
     for (std::size_t i = 0; i < col.size(); ++i)
-      for (int a = 0; a < components<E>(); ++a) col[i][a] = h[static_cast<std::size_t>(a) * n_ + off + i];
+      for (int a = 0; a < components<E>(); ++a) col[i][a] = h[static_cast<std::size_t>(a) * n_ + slot[off + i]];
   }
   template <class E>
   static constexpr int components() {
@@ -241,8 +336,21 @@ class KernelStepper : public Stepper<Dim> {
   DeviceArray<double> x_, v_, w_, f_, t_, d_, inv_m_, inv_i_, x_ref_, disp2_, max_d_, health_;
   DeviceArray<std::int32_t> species_;
   DeviceArray<std::uint32_t> replica_, renew_, offsets_dev_;
+  DeviceArray<std::uint32_t> id_, slot_of_;  // each slot's particle, each particle's slot
   NeighborList<Dim> list_;
   Scratch scratch_;
+
+ private:
+  struct Moved {
+    DeviceArray<double>* a;
+    int components;
+  };
+  static constexpr int kMostComponents = 3;
+  bool reorder_ = true;
+  std::vector<Moved> moved_;
+  DeviceArray<std::uint32_t> from_;
+  DeviceArray<double> spare_;
+  DeviceArray<std::int32_t> spare_species_;
 };
 
 }  // namespace GRANULAR_EXEC_NS

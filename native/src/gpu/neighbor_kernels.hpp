@@ -8,11 +8,20 @@
 //
 // A build, for the replicas marked for renewal: their reference positions
 // are set to the current ones; then particles are sorted by the cell of their
-// reference position (sort_pairs, the cells keyed by replica), each cell's
-// range in the sorted order is found, and every particle lists every
+// reference position and, within a cell, by id (sort_pairs; the cells keyed by
+// replica and, within a replica, numbered along a space-filling curve), each
+// cell's range in the sorted order is found, and every particle lists every
 // neighbour of its replica within range + skin of the reference positions (a
-// full list, in the order of the cell stencil): a replica's list depends on
-// its own reference positions only. The list grows until every row fits.
+// full list, in the order of the cell stencil, each cell's particles by id):
+// a replica's list depends on its own reference positions only. The list
+// grows until every row fits.
+//
+// Particles are identified by id (their index in the models' order) and held
+// in memory in slots. Between the sort and the list the stepper may move
+// them to the sorted order (KernelStepper::reorder): the particles of a cell,
+// and of nearby cells, then lie side by side in memory, which is what a GPU's
+// memory needs. Either way each row lists the same ids in the same order, so
+// the sums, and the results, are the same bits.
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -181,18 +190,22 @@ struct NoPairWithinSpecies {
 
 // The positions the list is built from: the current ones for the particles
 // of the replicas that rebuild (renew[r] != 0), the last build's for the
-// others; then each particle's cell of its reference position in its
-// replica's grid, keyed by replica (the replica's first key, base), and its
-// index (the values the sort carries).
+// others; then the key of the cell of slot i's reference position in its
+// replica's grid (cell_key: the cells keyed by replica, and within a replica
+// along the curve), stored by the particle's id with the id itself (the
+// values the sort carries): sorted, the ids come in the order of their
+// cells, and within a cell by id, wherever they are held.
 template <int Dim>
 struct CellOf {
   ListPositions s;
   const CellGrid<Dim>* grids;  // by replica
-  const std::uint32_t* base;   // by replica: its first cell key
-  const std::uint32_t* replica;
+  const std::uint32_t* base;   // by replica: its first cell index
+  const std::uint32_t* cell_key;
+  const std::uint32_t* replica;  // by slot
   const std::uint32_t* renew;
-  std::uint32_t* cell;
-  std::uint32_t* index;
+  const std::uint32_t* id;  // by slot
+  std::uint32_t* cell;      // by id
+  std::uint32_t* ids;
 
   GRANULAR_HD void operator()(unsigned i) const {
     const unsigned n = s.n;
@@ -204,10 +217,29 @@ struct CellOf {
       if (moved) s.x_ref[a * n + i] = s.x[a * n + i];
       q[a] = grid.coord(s.x_ref[a * n + i], a);
     }
-    cell[i] = base[r] + grid.index(q);
-    index[i] = i;
+    const std::uint32_t k = id[i];
+    cell[k] = cell_key[base[r] + grid.index(q)];
+    ids[k] = k;
   }
 };
+
+// The slot of the k-th particle in the sorted order.
+struct SlotsOf {
+  const std::uint32_t* sorted_ids;
+  const std::uint32_t* slot_of;  // by id
+  std::uint32_t* slots;
+  GRANULAR_HD void operator()(unsigned k) const { slots[k] = slot_of[sorted_ids[k]]; }
+};
+
+// Cell coordinates' Morton code: the bits of q[0], q[1] (and q[2])
+// interleaved, the order of the cells along a Z-shaped space-filling curve.
+template <int Dim>
+std::uint64_t morton(const int (&q)[Dim]) {
+  std::uint64_t code = 0;
+  for (int b = 0; b < 64 / Dim; ++b)
+    for (int a = 0; a < Dim; ++a) code |= ((static_cast<std::uint64_t>(q[a]) >> b) & 1u) << (b * Dim + a);
+  return code;
+}
 
 // Every cell's range [start, end) in the sorted order, from the sorted keys
 // (cells start empty: ClearRanges).
@@ -250,21 +282,22 @@ GRANULAR_HD void for_stencil(const int (&first)[Dim], const int (&last)[Dim], in
 // image), but the pairs the filter leaves out, from the 3^Dim cells around
 // i's (fewer at a non-periodic edge or on a collapsed axis), in a fixed
 // order: the cells by offset (the last axis fastest), each cell's particles
-// by index. Column m of row i is nbr[m * n + i] (neighbouring threads write
-// neighbouring words); count[i] is the row's length, which may exceed cap:
-// then the caller enlarges the list and builds again.
+// by id. Column m of row i is nbr[m * n + i], a slot (neighbouring threads
+// write neighbouring words); count[i] is the row's length, which may exceed
+// cap: then the caller enlarges the list and builds again.
 template <class Law, int Dim, class Domain, class Filter>
 struct ListNeighbors {
   ListPositions s;
   Domain domain;
   Filter filter;
   const CellGrid<Dim>* grids;  // by replica
-  const std::uint32_t* base;   // by replica: its first cell key
+  const std::uint32_t* base;   // by replica: its first cell index
+  const std::uint32_t* cell_key;
   const std::uint32_t* replica;
   double skin;
   const std::uint32_t* start;
   const std::uint32_t* end;
-  const std::uint32_t* sorted;
+  const std::uint32_t* slots;  // the sorted order's slots
   std::uint32_t* nbr;
   std::uint32_t* count;
   unsigned cap;
@@ -277,27 +310,27 @@ struct ListNeighbors {
     const double di = s.d[i];
     const auto row = filter.row(i);
     const CellGrid<Dim> grid = grids[replica[i]];
-    const std::uint32_t first_key = base[replica[i]];
-    int q[Dim], first[Dim], last[Dim], o[Dim];
+    const std::uint32_t first = base[replica[i]];
+    int q[Dim], lo[Dim], hi[Dim], o[Dim];
     for (int a = 0; a < Dim; ++a) {
       q[a] = grid.coord(xi[a], a);
       if (grid.n[a] == 1) {
-        first[a] = last[a] = 0;
+        lo[a] = hi[a] = 0;
       } else if (grid.periodic[a]) {
-        first[a] = -1;
-        last[a] = 1;
+        lo[a] = -1;
+        hi[a] = 1;
       } else {
-        first[a] = q[a] > 0 ? -1 : 0;
-        last[a] = q[a] < grid.n[a] - 1 ? 1 : 0;
+        lo[a] = q[a] > 0 ? -1 : 0;
+        hi[a] = q[a] < grid.n[a] - 1 ? 1 : 0;
       }
     }
     unsigned m = 0;
-    for_stencil<0>(first, last, o, [&](const int(&off)[Dim]) {
+    for_stencil<0>(lo, hi, o, [&](const int(&off)[Dim]) {
       int cq[Dim];
       for (int a = 0; a < Dim; ++a) cq[a] = (q[a] + off[a] + grid.n[a]) % grid.n[a];
-      const std::uint32_t c = first_key + grid.index(cq);
+      const std::uint32_t c = cell_key[first + grid.index(cq)];
       for (std::uint32_t k = start[c], ke = end[c]; k < ke; ++k) {
-        const std::uint32_t j = sorted[k];
+        const std::uint32_t j = slots[k];
         if (j == i || row.skip(j)) continue;
         double dr[Dim];
         for (int a = 0; a < Dim; ++a) dr[a] = xi[a] - xr[a * n + j];
@@ -347,53 +380,76 @@ GRANULAR_HD double worst_listed_overlap(const double* x, const double* d, unsign
 }
 
 // The cell sort and the full list of one stepper's replicas, in device
-// memory: `replica` gives each particle's replica, `renew` (one word a
-// replica) which replicas renew their reference positions at a build.
+// memory: `replica` gives each slot's replica, `renew` (one word a replica)
+// which replicas renew their reference positions at a build, `id` each slot's
+// particle and `slot_of` each particle's slot. A build is sort(), then (after
+// the stepper has moved the particles, if it does) list().
 template <int Dim>
 class NeighborList {
  public:
   // Each replica's grid (grids[r]: replica r's; replicas of one scene whose
   // widest particles differ have cells of other widths), for n particles in
   // all, rows of `cap` columns to start with; `who` names the stepper in
-  // errors. Replica r's cells are keyed after those of the replicas before it.
+  // errors. Replica r's cells are keyed after those of the replicas before it,
+  // and within it in the order of their Morton codes.
   void reserve(const std::vector<CellGrid<Dim>>& grids, unsigned n, unsigned cap, const std::string& who) {
     n_ = n;
     cap_ = cap;
-    std::vector<std::uint32_t> base;
-    std::uint64_t keys = 0;
+    std::vector<std::uint32_t> base, key;
     for (const CellGrid<Dim>& g : grids) {
-      base.push_back(static_cast<std::uint32_t>(keys));
-      keys += g.cells();
-      if (keys >= std::numeric_limits<std::uint32_t>::max() / 2)
+      base.push_back(static_cast<std::uint32_t>(key.size()));
+      if (key.size() + g.cells() >= std::numeric_limits<std::uint32_t>::max() / 2)
         throw std::invalid_argument(who + ": too many cells for 32-bit keys");
+      std::vector<std::pair<std::uint64_t, std::uint32_t>> code(g.cells());
+      for (std::uint32_t c = 0; c < g.cells(); ++c) code[c] = {morton<Dim>(coords(g, c).q), c};
+      std::sort(code.begin(), code.end());
+      const auto first = static_cast<std::uint32_t>(key.size());
+      key.resize(key.size() + g.cells());
+      for (std::uint32_t rank = 0; rank < g.cells(); ++rank) key[first + code[rank].second] = first + rank;
     }
     grids_.upload(grids);
     base_.upload(base);
+    cell_key_.upload(key);
     end_bit_ = 1;
-    while ((std::uint64_t{1} << end_bit_) < keys) ++end_bit_;
-    cell_start_.resize(keys);
-    cell_end_.resize(keys);
+    while ((std::uint64_t{1} << end_bit_) < key.size()) ++end_bit_;
+    cell_start_.resize(key.size());
+    cell_end_.resize(key.size());
     cell_.resize(n_);
-    index_.resize(n_);
+    ids_.resize(n_);
     sorted_cell_.resize(n_);
-    sorted_.resize(n_);
+    sorted_ids_.resize(n_);
+    slots_.resize(n_);
     count_.resize(n_);
   }
 
-  // A build (the header's), the domain's minimum image and the filter's
-  // pairs as Domain and Filter give them.
+  // A build's first half: the marked replicas' reference positions renewed,
+  // and the particles' ids sorted by cell, and within a cell by id
+  // (sorted_ids).
+  void sort(const ListPositions& s, const std::uint32_t* replica, const std::uint32_t* renew,
+            const std::uint32_t* id, Scratch& scratch) {
+    for_each(n_, CellOf<Dim>{s, grids_.data(), base_.data(), cell_key_.data(), replica, renew, id, cell_.data(),
+                             ids_.data()});
+    sort_pairs(cell_.data(), sorted_cell_.data(), ids_.data(), sorted_ids_.data(), n_, end_bit_, scratch);
+  }
+  // The ids in the order of their cells, by the last sort().
+  const std::uint32_t* sorted_ids() const { return sorted_ids_.data(); }
+
+  // A build's second half: each cell's range in the sorted order and every
+  // particle's row (the header's), the domain's minimum image and the
+  // filter's pairs as Domain and Filter give them; slot_of gives each id's
+  // slot now.
   template <class Law, class Domain, class Filter>
-  void build(const ListPositions& s, const std::uint32_t* replica, const std::uint32_t* renew, const Domain& domain,
-             const Filter& filter, double skin, Scratch& scratch) {
-    for_each(n_, CellOf<Dim>{s, grids_.data(), base_.data(), replica, renew, cell_.data(), index_.data()});
-    sort_pairs(cell_.data(), sorted_cell_.data(), index_.data(), sorted_.data(), n_, end_bit_, scratch);
+  void list(const ListPositions& s, const std::uint32_t* replica, const std::uint32_t* slot_of, const Domain& domain,
+            const Filter& filter, double skin, Scratch& scratch) {
+    for_each(n_, SlotsOf{sorted_ids_.data(), slot_of, slots_.data()});
     for_each(static_cast<unsigned>(cell_start_.size()), ClearRanges{cell_start_.data(), cell_end_.data()});
     for_each(n_, CellRanges{sorted_cell_.data(), cell_start_.data(), cell_end_.data(), n_});
     while (true) {
       nbr_.resize(static_cast<std::size_t>(cap_) * n_);
-      for_each(n_, ListNeighbors<Law, Dim, Domain, Filter>{s, domain, filter, grids_.data(), base_.data(), replica,
-                                                           skin, cell_start_.data(), cell_end_.data(), sorted_.data(),
-                                                           nbr_.data(), count_.data(), cap_});
+      for_each(n_, ListNeighbors<Law, Dim, Domain, Filter>{s, domain, filter, grids_.data(), base_.data(),
+                                                           cell_key_.data(), replica, skin, cell_start_.data(),
+                                                           cell_end_.data(), slots_.data(), nbr_.data(),
+                                                           count_.data(), cap_});
       const std::uint32_t longest = max_of(count_.data(), n_, std::uint32_t{0}, max_count_, scratch);
       if (longest <= cap_) break;
       cap_ = longest + longest / 4 + 8;
@@ -405,13 +461,28 @@ class NeighborList {
   long builds() const { return builds_; }
 
  private:
+  // Cell c's coordinates in grid g (CellGrid::index inverted).
+  static auto coords(const CellGrid<Dim>& g, std::uint32_t c) {
+    struct Q {
+      int q[Dim];
+    } out{};
+    for (int a = Dim - 1; a >= 2; --a) {
+      out.q[a] = static_cast<int>(c % static_cast<unsigned>(g.n[a]));
+      c /= static_cast<unsigned>(g.n[a]);
+    }
+    out.q[0] = static_cast<int>(c % static_cast<unsigned>(g.n[0]));
+    out.q[1] = static_cast<int>(c / static_cast<unsigned>(g.n[0]));
+    return out;
+  }
+
   DeviceArray<CellGrid<Dim>> grids_;
   DeviceArray<std::uint32_t> base_;
   unsigned n_ = 0;
   int end_bit_ = 1;
   unsigned cap_ = 0;  // list columns per particle
   long builds_ = 0;
-  DeviceArray<std::uint32_t> cell_, index_, sorted_cell_, sorted_, cell_start_, cell_end_, nbr_, count_, max_count_;
+  DeviceArray<std::uint32_t> cell_key_, cell_, ids_, sorted_cell_, sorted_ids_, slots_, cell_start_, cell_end_, nbr_,
+      count_, max_count_;
 };
 
 }  // namespace GRANULAR_EXEC_NS

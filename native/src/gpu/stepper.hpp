@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "core/particles.hpp"
@@ -41,6 +42,9 @@ class Stepper {
   // fraction of R_i + r_w, FlatBoxWalls::deepest's); +infinity where a
   // position or velocity is not finite, -infinity where there is no contact.
   virtual std::vector<double> worst_overlap() = 0;
+  // The particles' ids (their index in the models' order, replica after
+  // replica) in the order they are held in memory.
+  virtual std::vector<std::uint32_t> memory_order() const = 0;
   virtual int replicas() const = 0;
   virtual double time() const = 0;
   virtual long step_count() const = 0;
