@@ -261,6 +261,20 @@ def test_bench_gpu_host_reports_the_cpu_bench_fields():
     assert res["particle_steps_per_second"] > 0 and len(res["rates"]) == 2
     assert res["min"] <= res["particle_steps_per_second"] <= res["max"]
     assert res["neighbor_builds"] >= 1
+    assert res["memory_order"] == "cells"
+
+
+def test_bench_memory_order_ids_on_the_gpu_engine_only():
+    c = [str(BIN), "bench", str(DRUM), "--device", "gpu-host", "--gpu-memory-order", "ids", "--settle", "0",
+         "--rotations", "0.05", "--repeat", "1", "--json", "--set", "drum.length=8"]
+    r = subprocess.run(c, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    (res,) = json.loads(r.stdout)
+    assert res["memory_order"] == "ids" and res["neighbor_builds"] >= 1
+    c = [str(BIN), "bench", str(DRUM), "--gpu-memory-order", "ids", "--set", "drum.length=8"]
+    r = subprocess.run(c, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert r.returncode == 2
+    assert r.stderr.strip() == "error: --gpu-memory-order: the GPU engine's memory order (--device gpu or gpu-host)"
 
 
 def test_sigterm_checkpoints_every_replica_and_resumes_bitwise(tmp_path):
