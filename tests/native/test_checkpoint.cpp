@@ -27,11 +27,23 @@ fs::path source_dir() {
   return fs::path(src ? src : ".");
 }
 
+// This process's scratch directory, removed when its tests end.
+fs::path scratch_dir() { return fs::temp_directory_path() / ("granular_ckpt_" + std::to_string(::getpid())); }
+
 fs::path scratch(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("granular_ckpt_" + std::to_string(::getpid()));
+  const fs::path d = scratch_dir();
   fs::create_directories(d);
   return d / name;
 }
+
+class RemoveScratch : public testing::Environment {
+ public:
+  void TearDown() override {
+    std::error_code ignored;
+    fs::remove_all(scratch_dir(), ignored);
+  }
+};
+testing::Environment* const kRemoveScratch = testing::AddGlobalTestEnvironment(new RemoveScratch);
 
 DrumScene drum(const std::vector<std::string>& sets) {
   SceneFile f((source_dir() / "scenes/drum/A.toml").string(), sets);

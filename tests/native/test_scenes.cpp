@@ -34,6 +34,15 @@ std::string write_temp(const std::string& name, const std::string& text) {
   return p.string();
 }
 
+// Removes a temporary file when the scope ends, however the test leaves it.
+struct RemovedAtExit {
+  std::string path;
+  ~RemovedAtExit() {
+    std::error_code ignored;
+    fs::remove(path, ignored);
+  }
+};
+
 const char* kMinimal = R"(
 [scene]
 kind = "drum"
@@ -58,6 +67,7 @@ rotations = 1.0
 
 std::string error_of(const std::string& text, const std::vector<std::string>& sets = {}) {
   const auto path = write_temp("granular_scene_test.toml", text);
+  const RemovedAtExit removed{path};
   try {
     SceneFile f(path, sets);
     read_drum_scene(f);
@@ -281,6 +291,7 @@ TEST(BoxScenes, WallKindIsReadAndABadOneRefused) {
   text.insert(at, "walls = \"flat\"\n");
   const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
   const auto bad = write_temp("granular_box_walls_test.toml", text);
+  const RemovedAtExit removed{bad};
   try {
     SceneFile f(bad, {});
     read_box_scene(f);
