@@ -342,22 +342,20 @@ class BoxKernels final : public KernelStepper<2> {
     synchronize();
   }
 
+  // Each step's second stage and the next step's first run as one launch
+  // (then()); the last step's second stage alone.
   void advance(long steps) override {
+    if (steps <= 0) return;
+    const BoxArrays s = arrays();
+    for_each(n_, first_stage(s, time_ + dt_));
     for (long k = 0; k < steps; ++k) {
       const double t_next = time_ + dt_;
-      const auto b = pose_at(shaker_, t_next);  // once per step, as the CPU integrators
-      const Pose2 pose{{b.dx[0], b.dx[1]}, {b.v[0], b.v[1]}};
-      const BoxArrays s = arrays();
-      if constexpr (kGear)
-        for_each(n_, FirstStage<GearMove>{s, {dt_}, pose, step_lim2_});
-      else
-        for_each(n_, FirstStage<LeapfrogMove>{s, {dt_, {g_[0], g_[1]}}, pose, step_lim2_});
       if (must_rebuild()) build<Law>(OpenDomain<2>{}, pairs());
       for_each(n_, BoxForces<Law, Walls>{law_, walls_at(t_next), s, rows()});
-      if constexpr (kGear)
-        for_each(n_, GearCorrect{s, dt_, c0_, {g_[0], g_[1]}});
+      if (k + 1 < steps)
+        for_each(n_, then(second_stage(s), first_stage(s, t_next + dt_)));
       else
-        for_each(n_, LeapfrogSecond{s, dt_, {g_[0], g_[1]}});
+        for_each(n_, second_stage(s));
       time_ = t_next;
       ++steps_;
     }
@@ -399,6 +397,24 @@ class BoxKernels final : public KernelStepper<2> {
     std::vector<const BoxModel*> out;
     for (const BoxModel& m : ms) out.push_back(&m);
     return out;
+  }
+
+  // Stage 1 of the step that ends at t_next: the shaker's pose at t_next,
+  // evaluated once per step on the host, as the CPU integrators do.
+  auto first_stage(const BoxArrays& s, double t_next) const {
+    const auto b = pose_at(shaker_, t_next);
+    const Pose2 pose{{b.dx[0], b.dx[1]}, {b.v[0], b.v[1]}};
+    if constexpr (kGear)
+      return FirstStage<GearMove>{s, {dt_}, pose, step_lim2_};
+    else
+      return FirstStage<LeapfrogMove>{s, {dt_, {g_[0], g_[1]}}, pose, step_lim2_};
+  }
+  // Stage 2.
+  auto second_stage(const BoxArrays& s) const {
+    if constexpr (kGear)
+      return GearCorrect{s, dt_, c0_, {g_[0], g_[1]}};
+    else
+      return LeapfrogSecond{s, dt_, {g_[0], g_[1]}};
   }
 
   // The list's pairs: none of two wall particles.

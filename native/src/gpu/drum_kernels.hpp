@@ -250,12 +250,18 @@ class DrumKernels final : public KernelStepper<3> {
     synchronize();
   }
 
+  // Each step's second kick and the next step's first stage run as one
+  // launch (then()); the last step's second kick alone.
   void advance(long steps) override {
+    if (steps <= 0) return;
+    for_each(n_, first_stage());
     for (long k = 0; k < steps; ++k) {
-      for_each(n_, KickDrift{kick(), box_, step_lim2_});
       if (must_rebuild()) build<Law>(box_, AllPairs{});
       forces();
-      for_each(n_, kick());
+      if (k + 1 < steps)
+        for_each(n_, then(kick(), first_stage()));
+      else
+        for_each(n_, kick());
       time_ += dt_;
       ++steps_;
     }
@@ -279,6 +285,7 @@ class DrumKernels final : public KernelStepper<3> {
                       inv_m_.data(), inv_i_.data(), species_.data(), x_ref_.data(), disp2_.data(), n_};
   }
   Kick kick() { return Kick{arrays(), dt_, {g_[0], g_[1], g_[2]}}; }
+  KickDrift first_stage() { return KickDrift{kick(), box_, step_lim2_}; }
 
   void forces() { for_each(n_, Forces<Law, Ends>{law_, wall_, caps_, box_, arrays(), rows()}); }
 

@@ -4,6 +4,7 @@
 //
 //   for_each(n, f)       f(i) for i in [0, n): a <<<blocks, threads>>> launch
 //                        under nvcc, a plain OpenMP loop otherwise
+//   then(a, b)           a(i) then b(i) as one functor: two passes in one launch
 //   DeviceArray<T>       GPU memory (cudaMalloc) under nvcc, a std::vector
 //                        otherwise; upload / download copy to and from the host
 //   sort_pairs           a stable sort of (key, value) pairs by key:
@@ -75,6 +76,24 @@ void for_each(unsigned n, const F& f) {
   for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) f(static_cast<unsigned>(i));
 }
 #endif
+
+// first(i), then second(i), in one launch: two per-particle passes fused,
+// where each writes only particle i's entries and reads only what the other
+// writes for i (a step's second stage and the next step's first), so the
+// fused pass computes what the two launches would, bit for bit.
+template <class A, class B>
+struct Then {
+  A first;
+  B second;
+  GRANULAR_HD void operator()(unsigned i) const {
+    first(i);
+    second(i);
+  }
+};
+template <class A, class B>
+Then<A, B> then(const A& a, const B& b) {
+  return {a, b};
+}
 
 // An array in the memory the kernels run on. Move-only.
 template <class T>
