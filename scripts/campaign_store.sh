@@ -7,6 +7,8 @@
 #
 #   scripts/campaign_store.sh save NAME [DIR]      copy DIR's state into campaign/NAME/ and commit it
 #   scripts/campaign_store.sh restore NAME [DIR]   copy campaign/NAME/ into DIR, where DIR holds no job
+#   scripts/campaign_store.sh stop NAME [DIR]      stop the job (SIGTERM: its engines write their
+#                                                  checkpoints first), e.g. before a save that ends the day
 #
 # NAME is the job; DIR defaults to /var/lib/granular/NAME. Kept: DIR/COMMIT
 # (the engine is rebuilt from it, scripts/pin_commit.sh), and
@@ -73,5 +75,24 @@ case "$verb" in
     copy_state "$store" "$dir"
     echo "campaign_store: $dir restored from campaign/$name (commit $(cat "$dir/COMMIT"))"
     ;;
-  *) echo "campaign_store: unknown verb $verb (save or restore)" >&2; exit 2 ;;
+  stop)
+    # The job's processes: the sessions of those whose command line names
+    # DIR (the pinned engine, the job list, the suite's output), started by
+    # setsid as the README says; never this shell's own session.
+    own="$(ps -o sid= -p $$ | tr -d ' ')"
+    mapfile -t sids < <(ps -eo sid=,args= | awk -v d="$dir/" 'index($0, d) {print $1}' | sort -u | grep -vx "$own" || true)
+    if ((${#sids[@]} == 0)); then echo "campaign_store: no $name job running"; exit 0; fi
+    for s in "${sids[@]}"; do pkill -TERM -s "$s" || :; done
+    for _ in $(seq 120); do
+      alive=0
+      for s in "${sids[@]}"; do  # a process that has exited but not been reaped (Z) is gone
+        ps -o stat= --sid "$s" | grep -qv '^Z' && alive=1
+      done
+      ((alive)) || break
+      sleep 0.5
+    done
+    ((alive)) && { echo "campaign_store: $name still running after 60 s" >&2; exit 1; }
+    echo "campaign_store: $name stopped (session ${sids[*]}); it resumes from its checkpoints when started again"
+    ;;
+  *) echo "campaign_store: unknown verb $verb (save, restore or stop)" >&2; exit 2 ;;
 esac

@@ -138,3 +138,39 @@ def test_state_saved_while_running_resumes_elsewhere_to_the_same_end(tmp_path):
     x_ref, t_ref = last_frame(out)
     np.testing.assert_array_equal(t, t_ref)
     np.testing.assert_array_equal(x, x_ref)
+
+
+def test_stop_ends_the_jobs_session_and_the_job_resumes(tmp_path):
+    """scripts/campaign_store.sh stop: every process of the job's session ends
+    (the engine writes its checkpoint on SIGTERM), the test's own session is
+    left alone, and the next start finishes the job from the checkpoint."""
+    job = tmp_path / "job"
+    out = job / "runs" / "A.h5"
+    jobs = job / "jobs.txt"
+    job.mkdir()
+    sets = [s.replace("run.rotations=1.5", "run.rotations=3") for s in SETS]
+    jobs.write_text(f"{out} {SCENE} {' '.join(sets)}\n")
+    p = campaign(jobs)
+    deadline = time.time() + 120
+    while not Path(f"{out}.ckpt").exists() and time.time() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    if p.poll() is not None:
+        pytest.skip("the job finished before it could be stopped")
+    s = subprocess.run(["bash", str(ROOT / "scripts" / "campaign_store.sh"), "stop", "fake", str(job)],
+                       capture_output=True, text=True, timeout=120)
+    assert s.returncode == 0, s.stderr
+    assert "fake stopped" in s.stdout
+    p.wait(timeout=10)
+    states = subprocess.run(["ps", "-o", "stat=", "--sid", str(p.pid)], capture_output=True, text=True).stdout
+    assert [st for st in states.split() if not st.startswith("Z")] == []  # nothing left but the unreaped
+    assert str(os.getsid(0)) not in s.stdout.split("session")[-1]
+    assert Path(f"{out}.ckpt").exists() and not Path(f"{out}.done").exists()
+    again = subprocess.run(["bash", str(ROOT / "scripts" / "campaign_store.sh"), "stop", "fake", str(job)],
+                           capture_output=True, text=True, timeout=60)
+    assert again.returncode == 0 and "no fake job running" in again.stdout
+    q = campaign(jobs)
+    assert q.wait(timeout=600) == 0, q.stderr.read()
+    assert Path(f"{out}.done").exists()
+    assert "resum" in (job / "runs" / "A.log").read_text().lower()
+    _, t = last_frame(out)
+    assert t[-1] > 0
