@@ -76,9 +76,10 @@ case "$verb" in
     echo "campaign_store: $dir restored from campaign/$name (commit $(cat "$dir/COMMIT"))"
     ;;
   stop)
-    # The job's processes: the sessions of those whose command line names
-    # DIR (the pinned engine, the job list, the suite's output), started by
-    # setsid as the README says; never this shell's own session.
+    # The job's processes: every process sharing a setsid group (SID) with
+    # one whose command line names DIR (the pinned engine, the job list, the
+    # suite's output); the job is started by setsid, as the README says. Never
+    # this shell's own group.
     own="$(ps -o sid= -p $$ | tr -d ' ')"
     mapfile -t sids < <(ps -eo sid=,args= | awk -v d="$dir/" 'index($0, d) {print $1}' | sort -u | grep -vx "$own" || true)
     if ((${#sids[@]} == 0)); then echo "campaign_store: no $name job running"; exit 0; fi
@@ -92,7 +93,7 @@ case "$verb" in
       sleep 0.5
     done
     ((alive)) && { echo "campaign_store: $name still running after 60 s" >&2; exit 1; }
-    echo "campaign_store: $name stopped (session ${sids[*]}); it resumes from its checkpoints when started again"
+    echo "campaign_store: $name stopped (SID ${sids[*]}); it resumes from its checkpoints when started again"
     ;;
   *) echo "campaign_store: unknown verb $verb (save, restore or stop)" >&2; exit 2 ;;
 esac

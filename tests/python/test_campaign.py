@@ -140,10 +140,10 @@ def test_state_saved_while_running_resumes_elsewhere_to_the_same_end(tmp_path):
     np.testing.assert_array_equal(x, x_ref)
 
 
-def test_stop_ends_the_jobs_session_and_the_job_resumes(tmp_path):
-    """scripts/campaign_store.sh stop: every process of the job's session ends
-    (the engine writes its checkpoint on SIGTERM), the test's own session is
-    left alone, and the next start finishes the job from the checkpoint."""
+def test_stop_ends_the_jobs_processes_and_the_job_resumes(tmp_path):
+    """scripts/campaign_store.sh stop: every process of the job's setsid group
+    ends (the engine writes its checkpoint on SIGTERM), the test's own group
+    is left alone, and the next start finishes the job from the checkpoint."""
     job = tmp_path / "job"
     out = job / "runs" / "A.h5"
     jobs = job / "jobs.txt"
@@ -163,7 +163,7 @@ def test_stop_ends_the_jobs_session_and_the_job_resumes(tmp_path):
     p.wait(timeout=10)
     states = subprocess.run(["ps", "-o", "stat=", "--sid", str(p.pid)], capture_output=True, text=True).stdout
     assert [st for st in states.split() if not st.startswith("Z")] == []  # nothing left but the unreaped
-    assert str(os.getsid(0)) not in s.stdout.split("session")[-1]
+    assert str(os.getsid(0)) not in s.stdout.split("SID")[-1]
     assert Path(f"{out}.ckpt").exists() and not Path(f"{out}.done").exists()
     again = subprocess.run(["bash", str(ROOT / "scripts" / "campaign_store.sh"), "stop", "fake", str(job)],
                            capture_output=True, text=True, timeout=60)
