@@ -41,7 +41,7 @@ from compare.schema_writer import SchemaWriter  # noqa: E402
 from yade_cases.common import read_workdir  # noqa: E402
 from yade_cases.mapping import SPECIES, check_viscel_law, particle_material  # noqa: E402
 from yade_cases.two_body import plane_facet_vertices  # noqa: E402
-from yade_cases.yade_side import Progress, run_steps, states, version  # noqa: E402
+from yade_cases.yade_side import Progress, exit_with, run_steps, states, version  # noqa: E402
 
 # As drum_case.py: small spheres 9, big 12; the small species' walls 3, the
 # big's 20; avoidSelfInteractionMask 18 keeps facets from pairing.
@@ -136,11 +136,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    import traceback
-    try:
-        code = main(sys.argv[1:])
-    except Exception:  # noqa: BLE001 - report and exit non-zero
-        traceback.print_exc()
-        code = 1
-    sys.stdout.flush()
-    sys.exit(code)
+    exit_with(lambda: main(sys.argv[1:]))

@@ -143,11 +143,7 @@ if __name__ == "__main__":
         print("two_body.py runs inside YADE: yade -n -x yade_cases/two_body.py IN.json OUT.json "
               "(or yade_cases.two_body.run(setup) from Python)", file=sys.stderr)
         sys.exit(2)
-    import traceback
-    try:
-        code = main(sys.argv[1:])
-    except Exception:  # noqa: BLE001
-        traceback.print_exc()
-        code = 1
-    sys.stdout.flush()
-    sys.exit(code)
+    if str(HERE.parent) not in sys.path:
+        sys.path.insert(0, str(HERE.parent))
+    from yade_cases.yade_side import exit_with
+    exit_with(lambda: main(sys.argv[1:]))

@@ -3,6 +3,8 @@ importable inside the `yade` launcher."""
 
 from __future__ import annotations
 
+import os
+import shutil
 import sys
 import time
 import traceback
@@ -82,17 +84,28 @@ class Progress:
         return rate
 
 
-def script_main(main, script: str) -> None:
-    """Entry point of a case script run as `yade -n -x SCRIPT WORKDIR OUT.h5`:
-    runs main(workdir, out), prints any exception's traceback and exits with
-    main's status (1 on an exception, 2 on a wrong command line)."""
-    if len(sys.argv) != 3:
-        print(f"usage: yade -n -x yade_cases/{script} WORKDIR OUT.h5", file=sys.stderr)
-        sys.exit(2)
+def exit_with(run) -> None:
+    """Runs run() (a script's work, returning its exit status), prints any
+    exception's traceback, removes the temporary directory YADE made for this
+    process (/tmp/yade-XXXXXX, which YADE leaves behind, whatever TMPDIR says)
+    and exits with the status (1 on an exception)."""
     try:
-        code = main(sys.argv[1], sys.argv[2])
+        code = run()
     except Exception:  # noqa: BLE001 - report and exit non-zero
         traceback.print_exc()
         code = 1
     sys.stdout.flush()
+    tmp = os.path.dirname(O.tmpFilename())
+    if os.path.basename(tmp).startswith("yade-"):
+        shutil.rmtree(tmp, ignore_errors=True)
     sys.exit(code)
+
+
+def script_main(main, script: str) -> None:
+    """Entry point of a case script run as `yade -n -x SCRIPT WORKDIR OUT.h5`:
+    runs main(workdir, out) and exits with its status (exit_with; 2 on a
+    wrong command line)."""
+    if len(sys.argv) != 3:
+        print(f"usage: yade -n -x yade_cases/{script} WORKDIR OUT.h5", file=sys.stderr)
+        sys.exit(2)
+    exit_with(lambda: main(sys.argv[1], sys.argv[2]))
