@@ -1,9 +1,12 @@
 // Results are bitwise identical for a given thread count and seed.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <vector>
 
 #include "engine/drum.hpp"
+#include "app/thread_placement.hpp"
 #include "engine/steal_choice.hpp"
 #include "helpers.hpp"
 
@@ -131,4 +134,35 @@ TEST(Harness, OpenMpWaitsAreChosenBeforeTheTestsRun) {
   const char* spin = std::getenv("GOMP_SPINCOUNT");
   const char* policy = std::getenv("OMP_WAIT_POLICY");
   EXPECT_TRUE(spin != nullptr || policy != nullptr) << "main.cpp did not set GOMP_SPINCOUNT";
+}
+
+// app/thread_placement.hpp's rule: a team that fills the cores gets one core
+// a thread (all of the core's logical CPUs), in the order of the CPU numbers;
+// one that fills the logical CPUs gets one a thread; any other team, and one
+// thread, is left free.
+TEST(ThreadPlacement, ATeamThatFillsTheMaskIsBoundCloseAnyOtherIsFree) {
+  const std::vector<std::vector<int>> smt = {{0, 4}, {1, 5}, {2, 6}, {3, 7}};  // 4 cores, 2 threads each
+  EXPECT_EQ(placement(4, smt), smt);
+  EXPECT_EQ(placement(8, smt), (std::vector<std::vector<int>>{{0}, {4}, {1}, {5}, {2}, {6}, {3}, {7}}));
+  for (int t : {1, 2, 3, 5, 16}) EXPECT_TRUE(placement(t, smt).empty()) << t << " threads";
+  const std::vector<std::vector<int>> plain = {{0}, {1}};  // two cores, no SMT
+  EXPECT_EQ(placement(2, plain), plain);
+  EXPECT_TRUE(placement(1, plain).empty());
+  EXPECT_TRUE(placement(3, plain).empty());
+}
+
+// This machine's mask: every CPU of it in exactly one core.
+TEST(ThreadPlacement, TheMasksCoresHoldEachAllowedCpuOnce) {
+  cpu_set_t mask;
+  CPU_ZERO(&mask);
+  ASSERT_EQ(sched_getaffinity(0, sizeof mask, &mask), 0);
+  std::vector<int> seen;
+  for (const auto& core : cores_of_mask()) {
+    EXPECT_FALSE(core.empty());
+    seen.insert(seen.end(), core.begin(), core.end());
+  }
+  std::sort(seen.begin(), seen.end());
+  EXPECT_EQ(std::adjacent_find(seen.begin(), seen.end()), seen.end());
+  EXPECT_EQ(static_cast<int>(seen.size()), CPU_COUNT(&mask));
+  for (const int c : seen) EXPECT_TRUE(CPU_ISSET(c, &mask)) << c;
 }

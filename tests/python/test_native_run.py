@@ -496,3 +496,55 @@ def test_linear_law_survives_its_deep_but_physical_collapse_overlaps(tmp_path):
     r = granular("run", str(drum), "-o", str(tmp_path / "bad.h5"), "-q", *sets, "--set", "integrator.dt=0.05",
                  check=False)
     assert r.returncode == 3 and "simulation unstable" in r.stderr
+
+
+def _thread_cpus(pid, threads, timeout=60):
+    """The CPUs each thread of process pid may run on, read once it has
+    `threads` threads (and half a second later, so that each has placed itself)."""
+    def read():
+        lists = []
+        for task in Path(f"/proc/{pid}/task").glob("*"):
+            try:
+                status = (task / "status").read_text()
+            except OSError:
+                continue
+            line = next(ln for ln in status.splitlines() if ln.startswith("Cpus_allowed_list:"))
+            cpus = set()
+            for part in line.split(":")[1].strip().split(","):
+                a, _, b = part.partition("-")
+                cpus |= set(range(int(a), int(b or a) + 1))
+            lists.append(frozenset(cpus))
+        return lists
+    deadline = time.monotonic() + timeout
+    while len(read()) < threads and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    return read()
+
+
+@pytest.mark.parametrize("case", ["all", "one", "env"])
+def test_threads_are_bound_when_the_team_fills_the_cpus(tmp_path, case):
+    """app/thread_placement.hpp: a run whose threads fill the CPUs it may use
+    binds one thread to each core (or logical CPU), disjointly; a one-thread
+    run, and any run where OMP_PROC_BIND is set, stays free."""
+    mask = frozenset(os.sched_getaffinity(0))
+    if len(mask) < 2:
+        pytest.skip("one CPU: nothing to place")
+    threads = 1 if case == "one" else len(mask)
+    env = dict(os.environ, **({"OMP_PROC_BIND": "false"} if case == "env" else {}))
+    p = subprocess.Popen([str(BIN), "run", str(SCENE_A), "-o", str(tmp_path / "a.h5"), "-q", "--threads",
+                          str(threads), "--set", "run.rotations=50"], env=env, cwd=ROOT,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        lists = _thread_cpus(p.pid, threads)
+    finally:
+        p.terminate()
+        p.wait(timeout=60)
+    assert len(lists) >= threads
+    if case == "all":
+        bound = [c for c in lists if c != mask]
+        assert len(bound) >= threads, lists  # every worker, the main thread among them
+        assert all(a.isdisjoint(b) for i, a in enumerate(bound) for b in bound[i + 1:]), lists
+        assert frozenset().union(*bound) == mask
+    else:
+        assert all(c == mask for c in lists), lists

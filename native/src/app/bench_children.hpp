@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include "app/thread_placement.hpp"
+
 namespace granular::bench {
 
 // Runs `timed` (returning a JSON object) with `threads` OpenMP threads in
@@ -47,7 +49,10 @@ std::vector<nlohmann::json> in_children(Timed&& timed, int threads, int copies) 
       int status = 0;
       try {
         omp_set_num_threads(threads);
-        out = timed().dump();
+        const char* placed = place_threads();  // as a run of this many threads places them
+        nlohmann::json j = timed();
+        j["placement"] = placed;
+        out = j.dump();
       } catch (const std::exception& e) {
         out = nlohmann::json{{"error", e.what()}}.dump();
         status = 1;

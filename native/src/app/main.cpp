@@ -32,6 +32,7 @@
 
 #include "app/bench_children.hpp"
 #include "app/openmp_wait.hpp"
+#include "app/thread_placement.hpp"
 #include "engine/box.hpp"
 #include "engine/drum.hpp"
 #include "engine/particles.hpp"
@@ -695,6 +696,7 @@ int run_scene(const Loaded& l, const std::string& scene_path, std::string out_pa
     std::filesystem::remove(ckpt_path);  // a checkpoint of an earlier run into this output
   }
   install_stop_handlers();
+  place_threads();  // the team is final here (app/thread_placement.hpp)
   RunControl ctl = run_control(l, o, out_path, saved ? &*saved : nullptr);
   const RowCounts* rows = saved ? &saved->rows : nullptr;
   const bool progress = !o.quiet && isatty(fileno(stderr));
@@ -894,6 +896,7 @@ int run_bench(const Loaded& l, const std::vector<int>& threads, int rounds, int 
     res.push_back({{"scene", l.name()},
                    {"threads", s.threads},
                    {"copies", s.copies},
+                   {"placement", med["placement"]},
                    {"particles", med["particles"]},
                    {"particle_steps_per_second", rate},
                    {"min", rates[by.front()]},
