@@ -30,9 +30,13 @@ class CellList {
   using V = Vec<Dim>;
 
   // Called by every thread of an OpenMP parallel region with its own block
-  // [lo, hi): a parallel counting sort (per-thread histograms, one scan over
+  // [lo, hi): a parallel counting sort (per-thread histograms, a scan over
   // cells and threads, per-thread scatter). Particles keep their index order
-  // within a cell, so the result is the same for any thread count.
+  // within a cell, so the result is the same for any thread count. The scan
+  // runs in parallel too, each thread over its own range of cells from the
+  // sum of the ranges before it: run by one thread it was a serial pass over
+  // every cell and every thread's histogram, nt times the cells (1.3·10⁶
+  // entries for #T's 80 000 cells on 16 threads), repeated at every build.
   template <Wrap W>
   void build_in_region(const Domain<Dim, W>& domain, const Column<V>& x, const Column<double>& d, double d_large,
                        double min_cell, int t, int nt, std::size_t lo, std::size_t hi) {
@@ -64,6 +68,8 @@ class CellList {
       cell_start_.assign(n_cells_ + 1, 0);  // the cells and the end of the last
       offset_.resize(nt);
       large_cells_.resize(nt);
+      range_count_.resize(nt);
+      range_start_.resize(nt);
     }  // implicit barrier
     auto& count = offset_[t];
     count.assign(n_cells_ + 1, 0);
@@ -77,36 +83,52 @@ class CellList {
       ++count[cell_tmp_[i]];
     }
     large_cells_[t] = large_cells;
+    // Each cell's entries, thread by thread, from `run` on: offset_[u][c]
+    // becomes where thread u's particles of cell c start.
+    const auto place = [&](int c, std::uint32_t& run) {
+      for (int u = 0; u < nt; ++u) {
+        const std::uint32_t k = offset_[u][c];
+        offset_[u][c] = run;
+        run += k;
+      }
+    };
+    // Thread t's range of cells, and the particles in it.
+    const auto [c0, c1] = thread_block(static_cast<std::size_t>(n_cells_), nt, t);
+#pragma omp barrier
+    {
+      std::uint32_t in_range = 0;
+      for (std::size_t c = c0; c < c1; ++c)
+        for (int u = 0; u < nt; ++u) in_range += offset_[u][c];
+      range_count_[t] = in_range;
+    }
 #pragma omp barrier
 #pragma omp single
     {
-      std::uint32_t run = 0;
-      auto place = [&](int c) {
-        for (int u = 0; u < nt; ++u) {
-          const std::uint32_t k = offset_[u][c];
-          offset_[u][c] = run;
-          run += k;
-        }
-      };
       std::uint64_t n_large = 0, sum = 0;
       for (int u = 0; u < nt; ++u) {
         n_large += offset_[u][n_cells_];
         sum += large_cells_[u];
       }
-      auto place_large = [&] {
-        large_begin_ = run;
-        place(n_cells_);
-        large_end_ = run;
-      };
       const bool large_first = n_large > 0 && 2 * sum < n_large * median_cell(n - n_large, nt);
-      if (large_first) place_large();
-      for (int c = 0; c < n_cells_; ++c) {
-        cell_start_[c] = run;
-        place(c);
+      std::uint32_t run = large_first ? static_cast<std::uint32_t>(n_large) : 0;
+      for (int u = 0; u < nt; ++u) {
+        range_start_[u] = run;
+        run += range_count_[u];
       }
       cell_start_[n_cells_] = run;
-      if (!large_first) place_large();
+      large_begin_ = large_first ? 0 : run;
+      std::uint32_t large_run = large_begin_;
+      place(n_cells_, large_run);
+      large_end_ = large_run;
     }  // implicit barrier
+    {
+      std::uint32_t run = range_start_[t];
+      for (std::size_t c = c0; c < c1; ++c) {
+        cell_start_[c] = run;
+        place(static_cast<int>(c), run);
+      }
+    }
+#pragma omp barrier
     for (std::size_t i = lo; i < hi; ++i) sorted_[count[cell_tmp_[i]]++] = static_cast<std::uint32_t>(i);
 #pragma omp barrier
     // After the store is reordered by sorted(), particle k sits at slot k.
@@ -251,6 +273,7 @@ class CellList {
   std::vector<std::vector<std::uint32_t>> offset_;
   std::vector<std::uint32_t> cell_start_;
   std::vector<std::uint64_t> large_cells_;  // per thread: see build_in_region
+  std::vector<std::uint32_t> range_count_, range_start_;  // per thread: its range of cells' particles, and their first slot
   std::uint32_t large_begin_ = 0, large_end_ = 0;
   std::vector<std::uint32_t> sorted_;
 };
