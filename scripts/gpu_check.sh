@@ -90,6 +90,10 @@ run() {
     --rotations 0.05 --settle 0.02 --repeat 2
   echo "gpu_check: the CPU engine on the machine's cores, beside it"
   bench cpu_T scenes/drum/T.toml --threads 1 "$(nproc)" --rotations 0.1 --settle 0.25 --repeat 3 --ceiling "$(nproc)"
+  # the same threads left free to move (the program binds a team that fills the cores)
+  export OMP_PROC_BIND=false
+  bench cpu_T_free scenes/drum/T.toml --threads "$(nproc)" --rotations 0.1 --settle 0.25 --repeat 3
+  unset OMP_PROC_BIND
   bench cpu_A scenes/drum/A.toml --threads 1 "$(nproc)" --rotations 0.5 --settle 0.5 --repeat 3 --ceiling "$(nproc)"
   /usr/bin/env python3 - "$out" <<'EOF' || true
 import json, pathlib, sys
@@ -101,7 +105,8 @@ for f in sorted(out.glob("bench_*.json")):
         continue
     for r in rows if isinstance(rows, list) else [rows]:
         print(f"{f.stem[6:]:>18}  particles {r.get('particles', '?'):>9}  threads {r.get('threads', '-'):>3}  "
-              f"replicas {r.get('replicas', 1):>3}  order {r.get('memory_order', '-'):>5}  particle-steps/s {r.get('particle_steps_per_second', float('nan')):.3g}")
+              f"replicas {r.get('replicas', 1):>3}  order {r.get('memory_order', '-'):>5}  "
+              f"placement {r.get('placement', '-'):>5}  particle-steps/s {r.get('particle_steps_per_second', float('nan')):.3g}")
 EOF
   if [ "$status" -ne 0 ]; then echo "gpu_check: FAILED"; else echo "gpu_check: passed"; fi
   return "$status"
