@@ -30,7 +30,7 @@ store="$here/campaign/$name"
 
 kept() {  # the files of DIR to keep, relative to it
   (cd "$1" && case "$name" in
-    validate_full) find . -path './out/runs/*.json' -o -path './out/report*' -type f ;;
+    validate_full) { find ./out/runs -maxdepth 1 -name '*.json' -type f; find ./out -maxdepth 1 -name 'report*' -type f; } 2>/dev/null ;;
     *) find ./jobs.txt ./runs -type f ! -name '*.tmp' ! -name '*.resuming' 2>/dev/null |
          while read -r f; do  # a finished run's last checkpoint is not needed to go on
            case "$f" in *.h5.ckpt) [ -e "${f%.ckpt}.done" ] && continue ;; esac
