@@ -366,8 +366,9 @@ class BoxKernels final : public KernelStepper<2> {
     KernelStepper<2>::download(p, r);
     if (kGear && p.aux_v.size() == 4 && p.aux_a.size() == 5) {
       const unsigned off = offset(r);
-      for (int k = 0; k < 4; ++k) download_column(r_[k], off, p.aux_v[k]);
-      for (int k = 0; k < 5; ++k) download_column(q_[k], off, p.aux_a[k]);
+      const auto slot = slot_of_.download();
+      for (int k = 0; k < 4; ++k) download_column(r_[k], off, slot, p.aux_v[k]);
+      for (int k = 0; k < 5; ++k) download_column(q_[k], off, slot, p.aux_a[k]);
     }
   }
 

@@ -112,15 +112,6 @@ class DeviceArray {
 
   std::size_t size() const { return n_; }
   T* data() { return ptr(); }
-  // Exchanges the contents (the memory, not a copy) with o.
-  void swap(DeviceArray& o) noexcept {
-#if defined(__CUDACC__)
-    std::swap(p_, o.p_);
-#else
-    v_.swap(o.v_);
-#endif
-    std::swap(n_, o.n_);
-  }
   const T* data() const { return ptr(); }
 
   // n elements; the contents are not kept.
@@ -166,12 +157,20 @@ class DeviceArray {
     p_ = nullptr;
     n_ = 0;
   }
+  void swap(DeviceArray& o) noexcept {
+    std::swap(p_, o.p_);
+    std::swap(n_, o.n_);
+  }
   T* p_ = nullptr;
 #else
   T* ptr() const { return const_cast<T*>(v_.data()); }
   void release() {
     v_ = std::vector<T>();
     n_ = 0;
+  }
+  void swap(DeviceArray& o) noexcept {
+    v_.swap(o.v_);
+    std::swap(n_, o.n_);
   }
   std::vector<T> v_;
 #endif

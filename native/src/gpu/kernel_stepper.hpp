@@ -13,9 +13,9 @@
 // reordering on (the models' `reorder`, the default), moved at each list
 // build to the order of their cells along the list's space-filling curve
 // (gpu/neighbor_kernels.hpp), so that neighbours lie near each other in
-// memory. The ids (the models'
-// order) go with them; download and reference_positions return the models'
-// order, and the results are the same bits either way.
+// memory. The ids (the models' order) go with them; download and
+// reference_positions return the models' order, and the results are the same
+// bits either way.
 //
 // A model (DrumModel, BoxModel) gives p, x_ref, time, step_count, dt,
 // gravity, skin, lo, hi and max_step_move; the scene's stepper adds its walls,
@@ -78,17 +78,18 @@ class KernelStepper : public Stepper<Dim> {
   void download(ParticleStore<Dim>& p, int r) const override {
     const unsigned off = offset(r), len = offsets_[r + 1] - off;
     if (p.size() != len) throw std::invalid_argument(who_ + ": download into a store of another size");
-    download_column(x_, off, p.x);
-    download_column(v_, off, p.v);
-    download_column(w_, off, p.w);
-    download_column(f_, off, p.f);
-    download_column(t_, off, p.tq);
+    const auto slot = slot_of_.download();
+    download_column(x_, off, slot, p.x);
+    download_column(v_, off, slot, p.v);
+    download_column(w_, off, slot, p.w);
+    download_column(f_, off, slot, p.f);
+    download_column(t_, off, slot, p.tq);
   }
 
   Column<Vec<Dim>> reference_positions(int r) const override {
     const unsigned off = offset(r);
     Column<Vec<Dim>> out(offsets_[r + 1] - off);
-    download_column(x_ref_, off, out);
+    download_column(x_ref_, off, slot_of_.download(), out);
     return out;
   }
 
@@ -306,11 +307,11 @@ class KernelStepper : public Stepper<Dim> {
   }
   // The component-major array's particles [off, off + col.size()) into col.
   // The component-major array's particles of ids [off, off + col.size())
-  // into col, in id order, wherever they are held.
+  // into col, in id order, wherever they are held (slot: slot_of_, downloaded).
   template <class E>
-  void download_column(const DeviceArray<double>& in, unsigned off, Column<E>& col) const {
+  void download_column(const DeviceArray<double>& in, unsigned off, const std::vector<std::uint32_t>& slot,
+                       Column<E>& col) const {
     const auto h = in.download();
-    const auto slot = slot_of_.download();
     for (std::size_t i = 0; i < col.size(); ++i)
       for (int a = 0; a < components<E>(); ++a) col[i][a] = h[static_cast<std::size_t>(a) * n_ + slot[off + i]];
   }
