@@ -92,6 +92,9 @@ def main(argv=None):
     tb.add_argument("run_dir")
     tb.add_argument("-o", "--output", default="docs/table1.md")
     tb.add_argument("--figures", default="docs/figures/table1")
+    tb.add_argument("--earlier", default=None, metavar="JSON",
+                    help="an earlier report's JSON (docs/table1.json): its finished runs stand in for runs "
+                         "RUN_DIR has not finished")
     for sp in (o, pl):
         sp.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                         help="analysis parameter, e.g. formation.threshold=3 (keys: %s)" % ", ".join(DEFAULTS))
@@ -269,7 +272,7 @@ def main(argv=None):
 
     if args.command == "table1":
         from .table1 import table1
-        print(table1(args.run_dir, args.output, args.figures))
+        print(table1(args.run_dir, args.output, args.figures, earlier=args.earlier))
         return 0
 
     if args.command in ("observe", "plot"):

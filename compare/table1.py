@@ -6,6 +6,13 @@ A file RUN_DIR/<id>.h5 is analysed if present (files still being written are
 read as they are); RUN_DIR/Jsec.h5 and Ksec.h5 (short sections of #J and #K)
 feed the surface-slope section. Hand-written findings in docs/table1_notes.md
 are appended.
+
+    ... --earlier docs/table1.json
+
+keeps the finished runs of an earlier report (its JSON, docs/table1.json) for
+the runs RUN_DIR has not finished: a run made again stands in for the earlier
+one only once it has reached the paper's length. Each row keeps the commit
+that ran it, and its figures stay those the earlier report drew.
 """
 from __future__ import annotations
 
@@ -104,6 +111,56 @@ def run_summary(rid, run, obs, done, commit=None):
             "slope_deg": slope, "verdict": v, "reason": why}
 
 
+def _scene_of(rid):
+    """The shipped scene file of Table I run rid, as a dict (None if absent)."""
+    import tomllib
+    f = Path(__file__).resolve().parents[1] / "scenes" / "drum" / f"{rid}.toml"
+    return tomllib.loads(f.read_text()) if f.exists() else None
+
+
+def _scene_cells(sc):
+    """The row's columns that come from the scene: L, D, rho, b, Omega, ends, init."""
+    drum, parts = sc["drum"], sc["particles"]
+    return (f"{drum['length']:g} | {drum['diameter']:g} | {parts['fill_density']:g} | "
+            f"{parts['big_diameter']:g} | {drum['omega']:g} | {drum['ends'][0].upper()} | "
+            f"{'M' if parts['initial_state'] == 'mixed' else 'S'}")
+
+
+def _summary_segregated(r):
+    """_segregated from a run's summary: bands formed, and two or more at the end."""
+    return r.get("formation_rotations") is not None and (r.get("bands_final") or 0) >= 2
+
+
+def _earlier_row(r, sc):
+    """Table row and friction-rule row of an earlier report's finished run r."""
+    fr = sc.get("friction", {})
+    paper = r["paper"]
+    paper_seg = paper.get("bands") not in ("", "none", None)
+    ours_seg = _summary_segregated(r)
+    gamma = " ".join(f"{fr[k]:g}" for k in ("gamma_s_bb", "gamma_s_ss", "gamma_s_bw", "gamma_s_sw")) \
+        if all(k in fr for k in ("gamma_s_bb", "gamma_s_ss", "gamma_s_bw", "gamma_s_sw")) else "–"
+    row = (f"| {r['run']} | {_scene_cells(sc)} | {gamma} | {paper.get('N') or '–'} | {r['particles']} | "
+           f"{paper.get('rotations') or 0:g} | {r['rotations_reached']:.0f} | {paper.get('bands') or '–'} | "
+           f"{_fmt(r.get('bands_early'), 'd')}→{_fmt(r.get('bands_final'), 'd')} | "
+           f"{_fmt(r.get('formation_rotations'))} | {'yes' if paper_seg else 'no'} / {'yes' if ours_seg else 'no'} | "
+           f"{'✓' if paper_seg == ours_seg else '✗'} | {_events_text(r['events'])} | "
+           f"{r['verdict']}: {r['reason']} |")
+    return row, ours_seg
+
+
+def _rule_row(rid, sc, paper_seg, ours_seg):
+    """The friction-rule row of run rid, where Sec. V.A's rule covers it (else None)."""
+    fr, parts, drum = sc["friction"], sc["particles"], sc["drum"]
+    if not (parts["initial_state"] == "mixed" and drum["ends"] == "periodic" and drum["length"] == 128
+            and parts["fill_density"] == 0.3):
+        return None
+    return (f"| {rid} | {fr['gamma_s_bb']:g} | {fr['gamma_s_ss']:g} | {fr['gamma_s_bw']:g} | "
+            f"{fr['gamma_s_sw']:g} | {parts['big_diameter']:g} | "
+            f"{'yes' if paper_rule(fr) else 'no'} | {'yes' if paper_seg else 'no'} | "
+            f"{'yes' if ours_seg else 'no'} | "
+            f"{'✓' if paper_rule(fr) == ours_seg else '✗'} |")
+
+
 def plot_band_count(ax, summary, t, counts):
     from .bands import lasting_count
     ax.step(t, counts, where="post", color="0.75", lw=0.5, label="count")
@@ -175,7 +232,7 @@ def section_v_lines(summaries):
             "| claim | ours | runs |", "|---|---|---|"] + rows
 
 
-def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
+def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None, earlier=None):
     os.environ.setdefault("HDF5_USE_FILE_LOCKING", "FALSE")  # read runs still being written
     from matplotlib.figure import Figure
 
@@ -184,8 +241,27 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
     rows, figs, rule_rows, missing, summaries = [], [], [], [], []
     if commit is None and (run_dir.parent / "COMMIT").exists():
         commit = (run_dir.parent / "COMMIT").read_text().strip()
+    kept = {}  # an earlier report's finished runs (--earlier)
+    if earlier is not None:
+        kept = {r["run"]: r for r in json.loads(Path(earlier).read_text())["runs"] if r.get("done")}
+    from_earlier = []
     for rid in IDS:
         path = run_dir / f"{rid}.h5"
+        if rid in kept and not (run_dir / f"{rid}.h5.done").exists():
+            r = kept[rid]
+            sc = _scene_of(rid)
+            row, ours_seg = _earlier_row(r, sc)
+            rows.append(row)
+            paper_seg = r["paper"].get("bands") not in ("", "none", None)
+            rule = _rule_row(rid, sc, paper_seg, ours_seg)
+            if rule:
+                rule_rows.append(rule)
+            summaries.append(r)
+            from_earlier.append(r)
+            png = fig_dir / f"{rid}_spacetime.png"
+            if png.exists():
+                figs.append((rid, png))
+            continue
         if not path.exists():
             missing.append(rid)
             scene_file = Path(__file__).resolve().parents[1] / "scenes" / "drum" / f"{rid}.toml"
@@ -228,13 +304,9 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
             f"{_fmt(obs['formation'].formation_time)} | {'yes' if paper_seg else 'no'} / {'yes' if ours_seg else 'no'} | "
             f"{'✓' if paper_seg == ours_seg else '✗'} | {_events_text(summary['events'])} | "
             f"{summary['verdict']}: {summary['reason']} |")
-        if parts["initial_state"] == "mixed" and drum["ends"] == "periodic" and drum["length"] == 128 \
-                and parts["fill_density"] == 0.3:
-            rule_rows.append(f"| {rid} | {fr['gamma_s_bb']:g} | {fr['gamma_s_ss']:g} | {fr['gamma_s_bw']:g} | "
-                             f"{fr['gamma_s_sw']:g} | {parts['big_diameter']:g} | "
-                             f"{'yes' if paper_rule(fr) else 'no'} | {'yes' if paper_seg else 'no'} | "
-                             f"{'yes' if ours_seg else 'no'} | "
-                             f"{'✓' if paper_rule(fr) == ours_seg else '✗'} |")
+        rule = _rule_row(rid, sc, paper_seg, ours_seg)
+        if rule:
+            rule_rows.append(rule)
         fig = Figure(figsize=(7, 3.8), layout="constrained")
         top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(2.6, 1.2))
         ax = obs["spacetime"].plot(top)
@@ -250,6 +322,10 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
     for rid, views, species, fig_no in (("A", ("top",), True, "2"), ("J", ("top", "oblique"), True, "6"),
                                         ("K", ("top", "bottom"), True, "8"), ("Y", ("top",), True, "17")):
         path = run_dir / f"{rid}.h5"
+        if rid in {r["run"] for r in from_earlier}:
+            view_figs += [(f"#{rid} (the paper's Fig. {fig_no}), frame {p.stem.rsplit('_', 1)[1]}", p)
+                          for p in sorted(fig_dir.glob(f"{rid}_views_*.png"))]
+            continue
         if not path.exists():
             continue
         from .views import drum_views
@@ -297,6 +373,12 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None):
              f"{EVENT_WINDOW:g} rotations) | paper's x→y |",
              "|" + "---|" * 20]
     lines += rows
+    if from_earlier:
+        by_commit = {}
+        for r in from_earlier:
+            by_commit.setdefault(r.get("commit") or "unknown", []).append("#" + r["run"])
+        lines += [""] + [f"From the earlier report (`{earlier}`), made by commit {c[:7]} and not yet "
+                         f"made again to the paper's length here: {', '.join(ids)}." for c, ids in by_commit.items()]
     if missing:
         lines += ["", f"Not run yet: {', '.join('#' + m for m in missing)}."]
     lines += ["", "## The friction rules of Sec. V.A (runs #A–#H, #L–#N)", "",

@@ -72,3 +72,62 @@ def test_verdict_rules():
     assert verdict((8, 6), 8, 6, merge, False)[0] == "open"
     assert parse_paper_bands("19->11") == (19, 11) and parse_paper_bands("6") == (6, 6)
     assert parse_paper_bands("none") == (0, 0) and parse_paper_bands("") is None
+
+
+def test_earlier_report_stands_in_until_a_run_is_made_again(tmp_path):
+    """--earlier: an earlier report's finished runs fill the rows of runs the
+    directory has not finished, with their commit, values and figures; a run
+    made again replaces its earlier row only once it is done."""
+    rng = np.random.default_rng(11)
+    n = 4664
+    sp, d = species_and_diameters(rng, n)
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    banded = [random_bed(rng, n) for _ in range(5)] + [random_bed(rng, n, y=banded_y(rng, sp, 8)) for _ in range(30)]
+    write_drum_run(runs / "C.h5", np.array(banded), sp, d)
+    _with_scene(runs / "C.h5", "C", (2, 2, 10, 2), "8")
+    (runs / "C.h5.done").touch()
+    # F made again but not finished: the earlier finished F stands in
+    write_drum_run(runs / "F.h5", np.array([random_bed(rng, n) for _ in range(35)]), sp, d)
+    _with_scene(runs / "F.h5", "F", (2, 10, 2, 10), "none")
+
+    def earlier_row(rid, bands, done=True, **kw):
+        r = {"run": rid, "commit": "0123456789abcdef", "done": done, "rotations_requested": 500.0,
+             "rotations_reached": 500.0 if done else 12.0, "dt": 0.01, "particles": 4664,
+             "paper": {"bands": bands, "rotations": 500.0, "N": 4664, "figure": ""},
+             "bands_first_50": 6, "bands_early": 6, "bands_final": 4, "formation_rotations": 31.0,
+             "events": [{"rotation": 140.0, "from": 6, "to": 4, "kind": "merge"}], "slope_deg": 15.0,
+             "verdict": "agree", "reason": "counts within one band pair", "section_v": {}}
+        r.update(kw)
+        return r
+    earlier = tmp_path / "earlier.json"
+    earlier.write_text(json.dumps({"runs": [
+        earlier_row("C", "8", bands_final=99),           # the directory's finished C wins
+        earlier_row("D", "6"),                           # D absent from the directory: kept
+        earlier_row("F", "none", bands_early=0, bands_final=0, formation_rotations=None, events=[],
+                    verdict="agree", reason="earlier F"),
+        earlier_row("A", "8->6", done=False),            # unfinished earlier runs are not kept
+    ]}))
+    figs = tmp_path / "figs"
+    figs.mkdir()
+    (figs / "D_spacetime.png").write_bytes(b"\x89PNG earlier figure")
+    out = table1(runs, tmp_path / "t1.md", figs, earlier=earlier)
+    text = out.read_text()
+    rows = {}  # the main table's row of each run (the friction-rule table's come later)
+    for l in text.splitlines():
+        if l.startswith("| ") and l[2] in "ACDF" and l[3] == " ":
+            rows.setdefault(l[2], l)
+    assert "| 8→8 |" in rows["C"]  # from the directory, not the earlier 99
+    assert "| 6→4 | 31 | yes / yes | ✓ | 6→4 at 140 | agree: counts within one band pair |" in rows["D"]
+    assert "| 500 | 500 |" in rows["D"] and "| 0→0 |" in rows["F"] and rows["F"].endswith("| agree: earlier F |")
+    assert "(running)" not in rows["F"]
+    assert "| open: not started |" in rows["A"]
+    assert "made by commit 0123456 and not yet made again to the paper's length here: #D, #F." in text
+    assert "![D](figs/D_spacetime.png)" in text  # the earlier figure is kept, not redrawn
+    assert (figs / "D_spacetime.png").read_bytes() == b"\x89PNG earlier figure"
+    # the friction-rule table covers the kept runs too
+    assert any(l.startswith("| D | 10 | 10 | 10 | 2 |") for l in text.splitlines())
+    summary = {r["run"]: r for r in json.loads((tmp_path / "t1.json").read_text())["runs"]}
+    assert summary["D"]["commit"] == "0123456789abcdef" and summary["D"]["bands_final"] == 4
+    assert summary["F"]["reason"] == "earlier F" and summary["C"]["bands_final"] == 8
+    assert summary["A"]["verdict"] == "open"
