@@ -449,4 +449,40 @@ def force_readings(big_paths, nobig_paths):
                     se = v.std(ddof=1) / math.sqrt(len(v)) if len(v) > 1 else float("nan")
                     lines.append(f"| {f:g} | {len(v)} | {force} | {'phase 0' if phases == 'node' else 'all'} | "
                                  f"{half or 'whole'} | {v.mean():.3f} ± {se:.3f} |")
+    lines += ["", "The paper's reading (contact force, phase 0, whole ring) by whether the box with the disk "
+              f"convects: its depth-mean flux over the second half of the run at least {CONVECTING_LEVEL:g} "
+              "particles a cycle (the ramps' switch level). Mean and 95 % interval (Student's t) over packings.", "",
+              "| f (Hz) | box with the disk | packings | ratio, mean [95 %] |", "|---|---|---|---|"]
+    for f, pp in sorted(pairs.items()):
+        groups = {"convecting": [], "not convecting": []}
+        for b, n in pp:
+            groups["convecting" if convecting(b) else "not convecting"].append(
+                ForceRatio(force="contact", phases="node").compute(b, reference=n).ratio)
+        for name, v in groups.items():
+            lines.append(f"| {f:g} | {name} | {len(v)} | {_mean_interval(v)} |")
     return "\n".join(lines) + "\n"
+
+
+# The depth-mean convective flux (particles a cycle) above which a run counts
+# as convecting: the level at which the ramps switch (onset_from_ramp).
+CONVECTING_LEVEL = 3.0
+
+
+def convecting(run, level=CONVECTING_LEVEL):
+    """Whether the run's depth-mean flux Phi over the second half of its
+    shaking is at least ``level`` particles a cycle."""
+    total = int(Shaker(run).cycles(run.frames.time[-1]))
+    cf = ConvectiveFlux(skip_cycles=max(1, total // 2)).compute(run)
+    return bool(np.nanmean(cf.phi) >= level)
+
+
+def _mean_interval(v, confidence=0.95):
+    """"mean [lo, hi]": Student's t interval of the mean of v ("–" if empty)."""
+    from scipy import stats
+    v = np.asarray(v, dtype=float)
+    if v.size == 0:
+        return "–"
+    if v.size == 1:
+        return f"{v[0]:.3f}"
+    lo, hi = stats.t.interval(confidence, v.size - 1, loc=v.mean(), scale=stats.sem(v))
+    return f"{v.mean():.3f} [{lo:.3f}, {hi:.3f}]"

@@ -2,7 +2,8 @@
 # The shaken box at the paper's lengths (docs/shaken_box.md, "At the paper's
 # lengths"): the runs, then the figures and tables.
 #
-#   scripts/box_long.sh [DIR] [LANES]      runs (restartable) into DIR/runs, report into DIR/report
+#   scripts/box_long.sh [DIR] [LANES]          runs (restartable) into DIR/runs, report into DIR/report
+#   scripts/box_long.sh [DIR] [LANES] forces   the force-ratio runs only, and their table
 #
 # DIR defaults to /var/lib/granular/box. Every run is a shipped scene at its
 # defaults (the leapfrog, 2e-4 s) with the packing (particles.seed) and the
@@ -13,12 +14,15 @@
 #   slowramp_{up,down}_nobig_s1    the ramp ten times slower, 0.0005 Hz/s
 #   R4_gapG_sS            R = 4 cm at 3.2 Hz placed with its bottom G cm above the floor, packings 1-6
 #                         (60 s; 40 s from G = 10 on)
-#   force_f{2.6,2.65,2.7,2.8}_{big,nobig}_sS  the force ratio: 30 s, 8 frames a cycle, packings 1-6
-# About 75 core-minutes on this machine.
+#   force_f{2.6,2.65,2.7,2.8}_{big,nobig}_sS  the force ratio: 30 s, 8 frames a cycle, packings 1-6,
+#                         and 1-30 at 2.65 and 2.7 Hz (the convection onset, where packings scatter most)
+# About 2 core-hours on this machine, the force-ratio runs about 50 core-minutes.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 dir="$(realpath -m "${1:-/var/lib/granular/box}")"
 lanes="${2:-2}"
+only="${3:-}"
+[ -z "$only" ] || [ "$only" = forces ] || { echo "box_long.sh: the third argument is forces or nothing, not $only" >&2; exit 2; }
 S="$here/scenes/box"
 O="$dir/runs"
 mkdir -p "$O" "$dir/report"
@@ -37,13 +41,25 @@ jobs="$dir/jobs_all.txt"
   for d in up down; do
     echo "$O/slowramp_${d}_nobig_s1.h5 $S/ramp_$d.toml --set big.enabled=false --set shaking.ramp_time=2000 --set run.duration=2020"
   done
-  for s in 1 2 3 4 5 6; do for f in 2.6 2.65 2.7 2.8; do for k in big nobig; do
-    echo "$O/force_f${f}_${k}_s$s.h5 $S/f2.8_$k.toml --set shaking.frequency=$f --set particles.seed=$s --set run.duration=30 --set run.snapshot_every_cycles=0.125"
+  for s in $(seq 1 30); do for f in 2.6 2.65 2.7 2.8; do for k in big nobig; do
+    if [ "$s" -le 6 ] || [ "$f" = 2.65 ] || [ "$f" = 2.7 ]; then
+      echo "$O/force_f${f}_${k}_s$s.h5 $S/f2.8_$k.toml --set shaking.frequency=$f --set particles.seed=$s --set run.duration=30 --set run.snapshot_every_cycles=0.125"
+    fi
   done; done; done
 } >"$jobs"
+if [ "$only" = forces ]; then
+  grep "/force_f" "$jobs" >"$dir/jobs_forces.txt"
+  jobs="$dir/jobs_forces.txt"
+fi
 CAMPAIGN_NICE="${CAMPAIGN_NICE:-5}" "$here/scripts/campaign.sh" "$jobs" "$lanes"
 
 cd "$here"
+if [ "$only" = forces ]; then
+  /usr/bin/python3 -m compare box-forces --big "$O"/force_f*_big_s*.h5 --nobig "$O"/force_f*_nobig_s*.h5 \
+    >"$dir/report/forces.md"
+  echo "report in $dir/report/forces.md"
+  exit 0
+fi
 /usr/bin/python3 -m compare box-report --height "$O"/fig4_R*.h5 \
   --big "$O"/f2.6_big_s*.h5 "$O"/f2.8_big_s*.h5 "$O"/f3.0_big_s*.h5 \
   --nobig "$O"/f2.6_nobig_s*.h5 "$O"/f2.8_nobig_s*.h5 "$O"/f3.0_nobig_s*.h5 \

@@ -608,3 +608,26 @@ def test_placement_and_forces_commands_refuse_missing_files():
         r = subprocess.run(["/usr/bin/python3", "-m", "compare", *args], capture_output=True, text=True,
                            cwd=Path(__file__).resolve().parents[2])
         assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "nonexistent" in r.stderr
+
+
+def test_convecting_and_the_mean_interval(tmp_path):
+    """compare box-forces splits packings by convection: a depth-mean flux of
+    at least 3 particles a cycle over the second half of the run."""
+    from compare.box_report import _mean_interval, convecting
+    assert convecting(read_run(conveyor_run(tmp_path / "c.h5", 2, 2, cycles=10)))  # Phi = 4
+    assert not convecting(read_run(conveyor_run(tmp_path / "w.h5", 1, 1, cycles=10)))  # Phi = 2
+    assert not convecting(read_run(conveyor_run(tmp_path / "s.h5", 2, 2, cycles=10, direction=0)))
+    # mean 1.1, s.e. 0.1 / sqrt(3), t(0.975, 2) = 4.303
+    assert _mean_interval([1.0, 1.2, 1.1]) == "1.100 [0.852, 1.348]"
+    assert _mean_interval([]) == "–" and _mean_interval([1.25]) == "1.250"
+
+
+def test_force_readings_table(tmp_path):
+    """compare box-forces: every reading of the measure, then the paper's
+    reading split by convection, for a pair of known runs (ratio 1.25)."""
+    from compare.box_report import force_readings
+    big, ref = force_runs(tmp_path)
+    text = force_readings([big.path], [ref.path])
+    rows = [l for l in text.splitlines() if l.startswith("| 2 |") or l.startswith("| 2.")]
+    assert any("| contact | phase 0 | whole | 1.250 ± nan |" in l for l in rows)
+    assert "| not convecting | 1 | 1.250 |" in text and "| convecting | 0 | – |" in text
