@@ -10,7 +10,8 @@ PACKAGES=(cmake g++ make pkg-config
   python3-numpy python3-scipy python3-statsmodels python3-h5py python3-matplotlib python3-pytest python3-pytest-timeout
   lammps python3-lammps liblammps-dev openmpi-bin
   yade chromium
-  clang libclang-rt-14-dev libomp-dev)  # scripts/sanitize.sh, scripts/fuzz.sh
+  clang libclang-rt-14-dev libomp-dev  # scripts/sanitize.sh, scripts/fuzz.sh
+  ccache)  # a compiler cache shared by every build and clone on the machine (CMakeLists.txt)
 
 missing=()
 for p in "${PACKAGES[@]}"; do
