@@ -132,7 +132,8 @@ def _summary_segregated(r):
 
 
 def _earlier_row(r, sc):
-    """Table row and friction-rule row of an earlier report's finished run r."""
+    """The table row of an earlier report's finished run r (sc: its scene),
+    and whether the paper and the run segregate."""
     fr = sc.get("friction", {})
     paper = r["paper"]
     paper_seg = paper.get("bands") not in ("", "none", None)
@@ -145,7 +146,7 @@ def _earlier_row(r, sc):
            f"{_fmt(r.get('formation_rotations'))} | {'yes' if paper_seg else 'no'} / {'yes' if ours_seg else 'no'} | "
            f"{'✓' if paper_seg == ours_seg else '✗'} | {_events_text(r['events'])} | "
            f"{r['verdict']}: {r['reason']} |")
-    return row, ours_seg
+    return row, paper_seg, ours_seg
 
 
 def _rule_row(rid, sc, paper_seg, ours_seg):
@@ -250,9 +251,8 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None, ear
         if rid in kept and not (run_dir / f"{rid}.h5.done").exists():
             r = kept[rid]
             sc = _scene_of(rid)
-            row, ours_seg = _earlier_row(r, sc)
+            row, paper_seg, ours_seg = _earlier_row(r, sc)
             rows.append(row)
-            paper_seg = r["paper"].get("bands") not in ("", "none", None)
             rule = _rule_row(rid, sc, paper_seg, ours_seg)
             if rule:
                 rule_rows.append(rule)
@@ -264,19 +264,14 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None, ear
             continue
         if not path.exists():
             missing.append(rid)
-            scene_file = Path(__file__).resolve().parents[1] / "scenes" / "drum" / f"{rid}.toml"
-            if scene_file.exists():
-                import tomllib
-                sc = tomllib.loads(scene_file.read_text())
+            sc = _scene_of(rid)
+            if sc is not None:
                 paper = sc.get("paper", {})
                 summaries.append({"run": rid, "commit": commit, "done": False,
                                   "rotations_requested": sc["run"]["rotations"], "rotations_reached": 0.0,
                                   "paper": {k: paper.get(k) for k in ("bands", "rotations", "N", "figure")},
                                   "verdict": "open", "reason": "not started", "events": [], "section_v": {}})
-                rows.append(f"| {rid} | {sc['drum']['length']:g} | {sc['drum']['diameter']:g} | "
-                            f"{sc['particles']['fill_density']:g} | {sc['particles']['big_diameter']:g} | "
-                            f"{sc['drum']['omega']:g} | {sc['drum']['ends'][0].upper()} | "
-                            f"{'M' if sc['particles']['initial_state'] == 'mixed' else 'S'} | – | "
+                rows.append(f"| {rid} | {_scene_cells(sc)} | – | "
                             f"{paper.get('N', '–')} | – | {paper.get('rotations', 0):g} | 0 | "
                             f"{paper.get('bands') or '–'} | – | – | – | – | – | open: not started |")
             continue

@@ -22,6 +22,23 @@ def _with_scene(path, rid, friction, paper_bands):
         f.attrs["scene_name"] = rid
 
 
+def _c_and_f_runs(tmp_path, seed):
+    """tmp_path/runs with C, which segregates (bands from rotation 5 on) and
+    is done, and F, which stays mixed and is not done; both as Table I says."""
+    rng = np.random.default_rng(seed)
+    n = 4664
+    sp, d = species_and_diameters(rng, n)
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    banded = [random_bed(rng, n) for _ in range(5)] + [random_bed(rng, n, y=banded_y(rng, sp, 8)) for _ in range(30)]
+    write_drum_run(runs / "C.h5", np.array(banded), sp, d)
+    _with_scene(runs / "C.h5", "C", (2, 2, 10, 2), "8")
+    (runs / "C.h5.done").touch()
+    write_drum_run(runs / "F.h5", np.array([random_bed(rng, n) for _ in range(35)]), sp, d)
+    _with_scene(runs / "F.h5", "F", (2, 10, 2, 10), "none")
+    return runs
+
+
 def test_paper_rule():
     rule = lambda bb, ss, bw, sw: paper_rule(dict(gamma_s_bb=bb, gamma_s_ss=ss, gamma_s_bw=bw, gamma_s_sw=sw))
     assert rule(10, 2, 10, 2) and rule(2, 10, 10, 2) and rule(10, 2, 10, 10)
@@ -29,18 +46,7 @@ def test_paper_rule():
 
 
 def test_report_rows_and_rule_check(tmp_path):
-    rng = np.random.default_rng(7)
-    n = 4664
-    sp, d = species_and_diameters(rng, n)
-    runs = tmp_path / "runs"
-    runs.mkdir()
-    # C: segregates (bands from rotation 5 on); F: stays mixed. Both as Table I says.
-    banded = [random_bed(rng, n) for _ in range(5)] + [random_bed(rng, n, y=banded_y(rng, sp, 8)) for _ in range(30)]
-    write_drum_run(runs / "C.h5", np.array(banded), sp, d)
-    _with_scene(runs / "C.h5", "C", (2, 2, 10, 2), "8")
-    (runs / "C.h5.done").touch()
-    write_drum_run(runs / "F.h5", np.array([random_bed(rng, n) for _ in range(35)]), sp, d)
-    _with_scene(runs / "F.h5", "F", (2, 10, 2, 10), "none")
+    runs = _c_and_f_runs(tmp_path, seed=7)
     out = table1(runs, tmp_path / "t1.md", tmp_path / "figs")
     text = out.read_text()
     row_c = next(l for l in text.splitlines() if l.startswith("| C |"))
@@ -78,18 +84,8 @@ def test_earlier_report_stands_in_until_a_run_is_made_again(tmp_path):
     """--earlier: an earlier report's finished runs fill the rows of runs the
     directory has not finished, with their commit, values and figures; a run
     made again replaces its earlier row only once it is done."""
-    rng = np.random.default_rng(11)
-    n = 4664
-    sp, d = species_and_diameters(rng, n)
-    runs = tmp_path / "runs"
-    runs.mkdir()
-    banded = [random_bed(rng, n) for _ in range(5)] + [random_bed(rng, n, y=banded_y(rng, sp, 8)) for _ in range(30)]
-    write_drum_run(runs / "C.h5", np.array(banded), sp, d)
-    _with_scene(runs / "C.h5", "C", (2, 2, 10, 2), "8")
-    (runs / "C.h5.done").touch()
     # F made again but not finished: the earlier finished F stands in
-    write_drum_run(runs / "F.h5", np.array([random_bed(rng, n) for _ in range(35)]), sp, d)
-    _with_scene(runs / "F.h5", "F", (2, 10, 2, 10), "none")
+    runs = _c_and_f_runs(tmp_path, seed=11)
 
     def earlier_row(rid, bands, done=True, **kw):
         r = {"run": rid, "commit": "0123456789abcdef", "done": done, "rotations_requested": 500.0,
