@@ -79,9 +79,11 @@ case "$verb" in
     # The job's processes: every process sharing a setsid group (SID) with
     # one whose command line names DIR (the pinned engine, the job list, the
     # suite's output); the job is started by setsid, as the README says. Never
-    # this shell's own group.
+    # this shell's own group, and never SID 0: ps shows 0 for a group whose
+    # leader lies outside this PID namespace (a container), and pkill -s 0
+    # would mean this shell's own group.
     own="$(ps -o sid= -p $$ | tr -d ' ')"
-    mapfile -t sids < <(ps -eo sid=,args= | awk -v d="$dir/" 'index($0, d) {print $1}' | sort -u | grep -vx "$own" || true)
+    mapfile -t sids < <(ps -eo sid=,args= | awk -v d="$dir/" 'index($0, d) {print $1}' | sort -u | grep -vx -e "$own" -e 0 || true)
     if ((${#sids[@]} == 0)); then echo "campaign_store: no $name job running"; exit 0; fi
     for s in "${sids[@]}"; do pkill -TERM -s "$s" || :; done
     for _ in $(seq 120); do

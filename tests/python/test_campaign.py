@@ -2,6 +2,7 @@
 its first checkpoint is resumed by the next invocation and ends bit for bit
 where an uninterrupted run ends; a finished job is skipped."""
 import os
+import re
 import signal
 import subprocess
 import time
@@ -163,7 +164,8 @@ def test_stop_ends_the_jobs_processes_and_the_job_resumes(tmp_path):
     p.wait(timeout=10)
     states = subprocess.run(["ps", "-o", "stat=", "--sid", str(p.pid)], capture_output=True, text=True).stdout
     assert [st for st in states.split() if not st.startswith("Z")] == []  # nothing left but the unreaped
-    assert str(os.getsid(0)) not in s.stdout.split("SID")[-1]
+    stopped = re.search(r"\(SID ([0-9 ]+)\)", s.stdout).group(1).split()
+    assert str(os.getsid(0)) not in stopped and "0" not in stopped
     assert Path(f"{out}.ckpt").exists() and not Path(f"{out}.done").exists()
     again = subprocess.run(["bash", str(ROOT / "scripts" / "campaign_store.sh"), "stop", "fake", str(job)],
                            capture_output=True, text=True, timeout=60)
