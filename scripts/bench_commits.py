@@ -20,6 +20,7 @@ import json
 import os
 import random
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -54,8 +55,7 @@ def build(commit: str, top: Path) -> Path:
     (tree / "src").mkdir(parents=True, exist_ok=True)
     archive = subprocess.run(["git", "archive", sha], cwd=ROOT, check=True, capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(tree / "src")], input=archive, check=True)
-    launcher = ["-DCMAKE_CXX_COMPILER_LAUNCHER=ccache"] if subprocess.run(
-        ["which", "ccache"], capture_output=True).returncode == 0 else []
+    launcher = ["-DCMAKE_CXX_COMPILER_LAUNCHER=ccache"] if shutil.which("ccache") else []
     subprocess.run(["cmake", "-S", str(tree / "src"), "-B", str(tree / "build"), "-DCMAKE_BUILD_TYPE=Release",
                     "-DPython3_EXECUTABLE=/usr/bin/python3", *launcher], check=True, capture_output=True)
     env = dict(os.environ, CCACHE_BASEDIR=str(tree), CCACHE_NOHASHDIR="1")
