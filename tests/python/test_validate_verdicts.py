@@ -158,12 +158,16 @@ def test_seeds_per_variant_and_engine():
     assert box.paired_runs("3.2Hz", "native-viscel", "yade") == 4
 
 
-def test_the_quick_suite_passes_a_correct_engine_reliably():
-    # A failed CI run must mean a difference, not bad luck: at the designed
+@pytest.mark.parametrize("suite", ["quick", "full"])
+def test_each_suite_passes_a_correct_engine_reliably(suite):
+    # A failed run must mean a difference, not bad luck: at the designed
     # spreads, engines that are truly the same pass every gating comparison
     # with probability SUITE_PASS or more.
+    assert validate.pass_probability(design_table(suite)) >= validate.SUITE_PASS
+
+
+def test_the_quick_suite_sizes_each_pair_by_the_seeds_both_rows_run():
     table = design_table("quick")
-    assert validate.pass_probability(table) >= validate.SUITE_PASS
     # the sample size of each pair is the seeds both its rows run
     top = {d["pair"]: d for d in table if d["variant"] == "3.2Hz" and d["observable"] == "top_time_s"}
     assert top["native-leapfrog vs lammps"]["n"] == 20 and top["native-leapfrog vs lammps"]["gating"]
