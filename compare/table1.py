@@ -215,12 +215,25 @@ def section_v_lines(summaries):
                     f"{' (exchanged from rotation ' + f(v.get('exchanged_at'), '.0f') + ')' if v.get('exchanged_at') else ''}; "
                     f"band speed {f(sp, '.4f')} d per rotation ({v['band_speed_tracks']} boundaries followed) "
                     f"| {state(r)} |")
-    capped = [r for r in summaries if "ends_last_tenth" in r.get("section_v", {})]
+    # the odd count is the claim of the initially mixed capped runs (#R-#U);
+    # #X and #Y start as two halves
+    capped = [r for r in summaries if "ends_last_tenth" in r.get("section_v", {})
+              and (_scene_of(r["run"]) or {}).get("particles", {}).get("initial_state") == "mixed"]
     if capped:
         cells = "; ".join(f"#{r['run']} {r['bands_final']} bands, ends {'/'.join(r['section_v']['ends_last_tenth'])}"
                           for r in capped)
         rows.append(f"| capped runs: odd band counts, the rougher big particles at both ends | {cells} | "
                     f"{', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in capped)} |")
+    # Sec. V.A-B: a periodic pattern moves along the axis as a whole (Fig. 1);
+    # capped ends hold it still (#R, #S). The band speed is the median drift of
+    # the boundaries followed over 1000 rotations in the run's central half.
+    moving = [r for r in summaries if (r.get("section_v") or {}).get("band_speed_median") is not None]
+    if moving:
+        cells = "; ".join(f"#{r['run']} ({'capped' if 'ends_last_tenth' in r['section_v'] else 'periodic'}) "
+                          f"{r['section_v']['band_speed_median']:.2g} d per rotation "
+                          f"({r['section_v']['band_speed_tracks']} boundaries)" for r in moving)
+        rows.append(f"| periodic patterns move along the axis as a whole; capped ones stay still | band speed: "
+                    f"{cells} | {', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in moving)} |")
     blur = [r for r in summaries if r["run"] in "APQ" and r.get("section_v")]
     if len(blur) > 1:
         cells = "; ".join(f"#{r['run']} {r['section_v']['contrast_last_tenth']:.3f}" for r in blur)

@@ -7,7 +7,7 @@ import numpy as np
 
 import pytest
 
-from compare.table1 import paper_rule, parse_paper_bands, table1, verdict
+from compare.table1 import paper_rule, parse_paper_bands, section_v_lines, table1, verdict
 from synthetic import banded_y, random_bed, species_and_diameters, write_drum_run
 
 
@@ -127,3 +127,23 @@ def test_earlier_report_stands_in_until_a_run_is_made_again(tmp_path):
     assert summary["D"]["commit"] == "0123456789abcdef" and summary["D"]["bands_final"] == 4
     assert summary["F"]["reason"] == "earlier F" and summary["C"]["bands_final"] == 8
     assert summary["A"]["verdict"] == "open"
+
+
+def test_section_v_rows_pattern_motion_and_odd_counts():
+    """The band-speed row labels each run by its ends; the odd-count row takes
+    only the capped runs that start mixed (#X starts as two halves)."""
+    def summary(rid, done=True, **sv):
+        return {"run": rid, "done": done, "rotations_reached": 1000.0, "rotations_requested": 1000.0,
+                "bands_final": sv.pop("bands", 2), "events": [], "section_v": sv}
+    rows = section_v_lines([
+        summary("A", band_speed_median=0.0066, band_speed_tracks=10),
+        summary("R", bands=5, ends_last_tenth=["big", "big"], band_speed_median=None, band_speed_tracks=0),
+        summary("X", done=False, ends_last_tenth=["small", "big"], band_speed_median=5.6e-5, band_speed_tracks=2,
+                interface_width_first_tenth=12.8, interface_width_last_tenth=12.3),
+    ])
+    motion = [r for r in rows if r.startswith("| periodic patterns move")]
+    assert len(motion) == 1
+    assert "#A (periodic) 0.0066 d per rotation (10 boundaries); #X (capped) 5.6e-05" in motion[0]
+    assert motion[0].endswith("| #A, #X (running) |") and "#R" not in motion[0]
+    odd = [r for r in rows if r.startswith("| capped runs: odd band counts")]
+    assert len(odd) == 1 and "#R 5 bands, ends big/big" in odd[0] and "#X" not in odd[0]
