@@ -9,7 +9,10 @@ as a number computed from the axial profile (docs/observables.md, "Long runs").
   revolution" in the central portion of the run);
 - the species at the caps (capped runs: "it is the big particles ... that
   occupy the end bands"; odd band counts);
-- the band contrast (#P, #Q: fuller drums segregate less thoroughly).
+- the band contrast (#P, #Q: fuller drums segregate less thoroughly);
+- the wandering of a periodic pattern as a whole (#A, Fig. 1: "apparently
+  random oscillatory motion in the axial direction, although the
+  fluctuations tend to be less than the spacing between alternate bands").
 
 All take the profile as (t, y_centres, phi): rotations, slice centres and the
 small-particle volume fraction per slice (NaN where empty), with the drum's
@@ -123,6 +126,28 @@ def contrast(phi, mean, smoothing=2.0, periodic=True):
     return dev.std(axis=-1)
 
 
+def pattern_excursion(t, phi, mean, length, min_rotations=200.0):
+    """How far a periodic band pattern wanders as a whole. The pattern's
+    position is the phase of its dominant axial Fourier mode k (of the
+    deviation from ``mean``), x = -arg(F_k) L / (2 pi k), unwrapped in time,
+    followed over the last stretch of the run in which k stays the same (a
+    merge or split changes k and ends the pattern being followed). Returns
+    (excursion, wavelength L / k, rotations followed): the range of x over
+    that stretch, the spacing between alternate bands, and the stretch's
+    length; None if the stretch is shorter than ``min_rotations``."""
+    t = np.asarray(t, float)
+    dev = np.nan_to_num(np.asarray(phi, float) - mean)
+    f = np.fft.rfft(dev, axis=-1)
+    k = np.argmax(np.abs(f[:, 1:]), axis=1) + 1
+    other = np.nonzero(k != k[-1])[0]
+    start = other[-1] + 1 if other.size else 0
+    if t[-1] - t[start] < min_rotations:
+        return None
+    kk = int(k[-1])
+    x = -np.unwrap(np.angle(f[start:, kk])) * length / (2 * np.pi * kk)
+    return float(x.max() - x.min()), float(length / kk), float(t[-1] - t[start])
+
+
 def section_v(run, obs):
     """The claims' numbers for one run (JSON-ready)."""
     st = obs["spacetime"]
@@ -149,6 +174,10 @@ def section_v(run, obs):
         out["exchanged_at"] = float(t[np.argmax(ex < -0.5)]) if (ex < -0.5).any() else None
         order = obs["formation"].smoothed
         out["mixing_time"] = lasting_below(obs["formation"].time_rotations, order, obs["formation"].threshold)
+    if periodic:
+        pe = pattern_excursion(t, phi, mean, float(sc["drum"]["length"]))
+        if pe is not None:
+            out["pattern_excursion"], out["pattern_wavelength"], out["pattern_rotations"] = pe
     if not periodic:
         with np.errstate(invalid="ignore"):  # a slice empty in every row stays NaN
             out["ends_last_tenth"] = end_species(np.nanmean(phi[last], axis=0), mean)

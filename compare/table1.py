@@ -224,16 +224,26 @@ def section_v_lines(summaries):
                           for r in capped)
         rows.append(f"| capped runs: odd band counts, the rougher big particles at both ends | {cells} | "
                     f"{', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in capped)} |")
-    # Sec. V.A-B: a periodic pattern moves along the axis as a whole (Fig. 1);
-    # capped ends hold it still (#R, #S). The band speed is the median drift of
-    # the boundaries followed over 1000 rotations in the run's central half.
-    moving = [r for r in summaries if (r.get("section_v") or {}).get("band_speed_median") is not None]
+    # Sec. V.A-B: a periodic pattern wanders along the axis as a whole, by less
+    # than the spacing between alternate bands (Fig. 1); capped ends hold it
+    # still (#R, #S). The band speed is the median drift of the boundaries
+    # followed over 1000 rotations in the run's central half; the excursion is
+    # the range of the dominant mode's position (compare/sectionv.py).
+    def motion(v):
+        parts = []
+        if v.get("band_speed_median") is not None:
+            parts.append(f"band speed {v['band_speed_median']:.2g} d per rotation ({v['band_speed_tracks']} boundaries)")
+        if v.get("pattern_excursion") is not None:
+            parts.append(f"wanders over {v['pattern_excursion']:.1f} = {v['pattern_excursion'] / v['pattern_wavelength']:.2f}"
+                         f" of the alternate-band spacing in {v['pattern_rotations']:.0f} rotations")
+        return ", ".join(parts)
+    moving = [r for r in summaries if motion(r.get("section_v") or {})]
     if moving:
         cells = "; ".join(f"#{r['run']} ({'capped' if 'ends_last_tenth' in r['section_v'] else 'periodic'}) "
-                          f"{r['section_v']['band_speed_median']:.2g} d per rotation "
-                          f"({r['section_v']['band_speed_tracks']} boundaries)" for r in moving)
-        rows.append(f"| periodic patterns move along the axis as a whole; capped ones stay still | band speed: "
-                    f"{cells} | {', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in moving)} |")
+                          f"{motion(r['section_v'])}" for r in moving)
+        rows.append(f"| periodic patterns wander along the axis, by less than the spacing between alternate bands; "
+                    f"capped ones stay still | {cells} | "
+                    f"{', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in moving)} |")
     blur = [r for r in summaries if r["run"] in "APQ" and r.get("section_v")]
     if len(blur) > 1:
         cells = "; ".join(f"#{r['run']} {r['section_v']['contrast_last_tenth']:.3f}" for r in blur)

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from compare.sectionv import (band_speed, contrast, end_species, exchange, interface_width, interfaces,
-                              lasting_below)
+                              lasting_below, pattern_excursion)
 
 Y = np.arange(-63.5, 64.0, 1.0)  # 128 slice centres of a drum of L = 128
 
@@ -59,3 +59,22 @@ def test_end_species_and_contrast():
     assert end_species(capped, 0.5) == ("big", "big")
     assert contrast(np.full_like(Y, 0.5), 0.5) == pytest.approx(0.0)
     assert contrast(phi, 0.5, smoothing=0.5) > 0.45
+
+
+def test_pattern_excursion_follows_the_dominant_mode():
+    """Six bands (k = 3) swinging by +-5 slices: excursion 10, wavelength
+    128/3; a merge to four bands (k = 2) partway restarts the stretch, and a
+    stretch shorter than the minimum gives None."""
+    t = np.arange(0.0, 1000.0, 1.0)
+    six = lambda x0: 0.5 + 0.4 * np.cos(2 * np.pi * 3 * (Y - x0) / 128.0)
+    four = lambda x0: 0.5 + 0.4 * np.cos(2 * np.pi * 2 * (Y - x0) / 128.0)
+    phi = np.array([six(5.0 * np.sin(2 * np.pi * tt / 300.0)) for tt in t])
+    exc, lam, rot = pattern_excursion(t, phi, 0.5, 128.0)
+    assert exc == pytest.approx(10.0, abs=0.05) and lam == pytest.approx(128 / 3) and rot == pytest.approx(999.0)
+    # a steady drift of 30 slices, more than one wavelength/2: unwrapped, not folded back
+    drift = np.array([six(0.03 * tt) for tt in t])
+    assert pattern_excursion(t, drift, 0.5, 128.0)[0] == pytest.approx(0.03 * 999, rel=1e-3)
+    merged = np.array([six(0.0) if tt < 600 else four(2.0 + 0.01 * tt) for tt in t])
+    exc, lam, rot = pattern_excursion(t, merged, 0.5, 128.0)
+    assert lam == pytest.approx(64.0) and rot == pytest.approx(399.0) and exc == pytest.approx(0.01 * 399, rel=1e-3)
+    assert pattern_excursion(t, merged, 0.5, 128.0, min_rotations=500.0) is None

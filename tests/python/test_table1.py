@@ -136,14 +136,16 @@ def test_section_v_rows_pattern_motion_and_odd_counts():
         return {"run": rid, "done": done, "rotations_reached": 1000.0, "rotations_requested": 1000.0,
                 "bands_final": sv.pop("bands", 2), "events": [], "section_v": sv}
     rows = section_v_lines([
-        summary("A", band_speed_median=0.0066, band_speed_tracks=10),
+        summary("A", band_speed_median=0.0066, band_speed_tracks=10, pattern_excursion=8.0,
+                pattern_wavelength=32.0, pattern_rotations=900.0),
         summary("R", bands=5, ends_last_tenth=["big", "big"], band_speed_median=None, band_speed_tracks=0),
         summary("X", done=False, ends_last_tenth=["small", "big"], band_speed_median=5.6e-5, band_speed_tracks=2,
                 interface_width_first_tenth=12.8, interface_width_last_tenth=12.3),
     ])
-    motion = [r for r in rows if r.startswith("| periodic patterns move")]
+    motion = [r for r in rows if r.startswith("| periodic patterns wander")]
     assert len(motion) == 1
-    assert "#A (periodic) 0.0066 d per rotation (10 boundaries); #X (capped) 5.6e-05" in motion[0]
+    assert ("#A (periodic) band speed 0.0066 d per rotation (10 boundaries), wanders over 8.0 = 0.25 of the "
+            "alternate-band spacing in 900 rotations; #X (capped) band speed 5.6e-05 d per rotation") in motion[0]
     assert motion[0].endswith("| #A, #X (running) |") and "#R" not in motion[0]
     odd = [r for r in rows if r.startswith("| capped runs: odd band counts")]
     assert len(odd) == 1 and "#R 5 bands, ends big/big" in odd[0] and "#X" not in odd[0]

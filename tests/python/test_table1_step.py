@@ -81,3 +81,9 @@ def test_a_merge_at_one_step_only_is_not_equivalent(tmp_path):
     text = "\n".join(step_lines(check))
     assert "| 0.01 | 1 | 1000 |" in text and "| bands at rotation 1000 | 3 + 3 | -4.00 |" in text
     assert "different" in text
+    # each row reports how far its pattern wandered, or "–" where no mode could be followed
+    rows = [l for l in text.splitlines() if l.startswith("| 0.0")]
+    assert len(rows) == 6 and all(l.count("|") == 10 for l in rows)
+    for r in check["runs"]:
+        p = r["pattern"]
+        assert p is None or (p["rotations"] >= 200 and 128 / p["wavelength"] == round(128 / p["wavelength"]))
