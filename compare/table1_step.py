@@ -140,7 +140,7 @@ def step_lines(check):
              f"({EVENT_WINDOW:g} rotations), \"none\" if there is none by rotation 1000.", "",
              "The pattern wanders: the range of the band pattern's axial position over the last stretch "
              "with one dominant mode, as a fraction of the spacing between alternate bands "
-             "(docs/observables.md, \"Pattern excursion\"; Fig. 1's claim: less than one).", "",
+             "(docs/observables.md, \"Long runs\"; Fig. 1's claim: less than one).", "",
              "| step | seed | rotations | formation | bands at 1000 | first merge | events | slope | pattern wanders |",
              "|---|---|---|---|---|---|---|---|---|"]
     for r in sorted(check["runs"], key=lambda r: (r["dt"], r["seed"])):
