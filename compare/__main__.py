@@ -80,6 +80,9 @@ def main(argv=None):
     o.add_argument("run")
     o.add_argument("--json", action="store_true", help="print JSON (the only format for now)")
     o.add_argument("--reference", help="shaken box: a run without the big disk, for the force ratio")
+    sv = sub.add_parser("section-v", help="drum: Section V's long-run measures of each run, as JSON "
+                                          "(docs/observables.md, \"Long runs\")")
+    sv.add_argument("runs", nargs="+")
     pl = sub.add_parser("plot", help="write every figure of a run")
     pl.add_argument("run")
     pl.add_argument("-o", "--output", required=True, help="directory for the PNGs")
@@ -296,6 +299,22 @@ def main(argv=None):
                     print(path)
         except (OSError, ValueError) as exc:
             return _fail(args.command, args.run, exc)
+        return 0
+
+    if args.command == "section-v":
+        import json
+
+        from .observe import analyse
+        from .reader import read_run
+        from .sectionv import section_v
+        out = {}
+        for path in args.runs:
+            try:
+                run = read_run(path)
+                out[path] = section_v(run, analyse(run))
+            except (OSError, ValueError, KeyError) as exc:
+                return _fail("section-v", path, exc)
+        print(json.dumps(out, indent=2))
         return 0
 
     if args.command == "quicklook":

@@ -10,6 +10,9 @@ as a number computed from the axial profile (docs/observables.md, "Long runs").
 - the species at the caps (capped runs: "it is the big particles ... that
   occupy the end bands"; odd band counts);
 - the band contrast (#P, #Q: fuller drums segregate less thoroughly);
+- where band formation starts (capped runs: "band formation begins almost
+  simultaneously at several distinct locations, the ends do not function as
+  nucleation sites");
 - the wandering of a periodic pattern as a whole (#A, Fig. 1: "apparently
   random oscillatory motion in the axial direction, although the
   fluctuations tend to be less than the spacing between alternate bands").
@@ -126,6 +129,41 @@ def contrast(phi, mean, smoothing=2.0, periodic=True):
     return dev.std(axis=-1)
 
 
+ONSET_LEVEL = 0.2  # |smoothed deviation| of the small fraction that marks a band as begun
+
+
+def band_onsets(t, y, phi, mean, t_ref, level=ONSET_LEVEL, smoothing=2.0, time_smoothing=1.0, periodic=False):
+    """When each band began: the bands are the runs of one sign of the
+    smoothed deviation from ``mean`` at the profile nearest ``t_ref``
+    (rotations); a band's onset is the first time |deviation| exceeds
+    ``level`` in any of its slices. The deviation is smoothed by ``smoothing``
+    slices along the axis and ``time_smoothing`` rotations in time. With caps,
+    the slice against each cap is left out (mostly small grains whatever the
+    band, see end_species). Returns one dict a band, in axial order: y_lo,
+    y_hi (slice centres), species ("small" or "big"), end (touches a cap),
+    onset (rotations; None if not by the end of the run)."""
+    t = np.asarray(t, float)
+    raw = np.nan_to_num(np.asarray(phi, float) - mean)
+    if not periodic:
+        raw[:, 0] = raw[:, -1] = 0.0
+    dev = gaussian_filter1d(raw, smoothing, axis=1, mode="wrap" if periodic else "nearest")
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    if time_smoothing > 0 and t.size > 1:
+        dev = gaussian_filter1d(dev, time_smoothing / dt, axis=0, mode="nearest")
+    ref = dev[int(np.argmin(np.abs(t - t_ref)))]
+    sign = np.sign(ref)
+    cuts = np.nonzero(sign[1:] != sign[:-1])[0] + 1
+    over = np.abs(dev) > level
+    out = []
+    for seg in np.split(np.arange(ref.size), cuts):
+        hit = over[:, seg].any(axis=1)
+        out.append({"y_lo": float(y[seg[0]]), "y_hi": float(y[seg[-1]]),
+                    "species": "small" if sign[seg[0]] > 0 else "big",
+                    "end": (not periodic) and (seg[0] == 0 or seg[-1] == ref.size - 1),
+                    "onset": float(t[np.argmax(hit)]) if hit.any() else None})
+    return out
+
+
 def pattern_excursion(t, phi, mean, length, min_rotations=200.0):
     """How far a periodic band pattern wanders as a whole. The pattern's
     position is the phase of its dominant axial Fourier mode k (of the
@@ -178,6 +216,13 @@ def section_v(run, obs):
         pe = pattern_excursion(t, phi, mean, float(sc["drum"]["length"]))
         if pe is not None:
             out["pattern_excursion"], out["pattern_wavelength"], out["pattern_rotations"] = pe
+    if not periodic and obs["formation"].formation_time is not None:
+        # the bands as they stand 30 rotations after formation, before later merging
+        t_ref = min(float(t[-1]), obs["formation"].formation_time + 30.0)
+        on = band_onsets(t, y, phi, mean, t_ref)
+        out["onset_interior"] = sorted(b["onset"] for b in on if not b["end"] and b["onset"] is not None)
+        out["onset_interior_bands"] = len([b for b in on if not b["end"]])
+        out["onset_ends"] = [b["onset"] for b in on if b["end"]]
     if not periodic:
         with np.errstate(invalid="ignore"):  # a slice empty in every row stays NaN
             out["ends_last_tenth"] = end_species(np.nanmean(phi[last], axis=0), mean)

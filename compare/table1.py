@@ -224,6 +224,18 @@ def section_v_lines(summaries):
                           for r in capped)
         rows.append(f"| capped runs: odd band counts, the rougher big particles at both ends | {cells} | "
                     f"{', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in capped)} |")
+    # Sec. V.B: with caps, formation starts at several interior places, not at the ends
+    nucl = [r for r in capped if r["section_v"].get("onset_interior")]
+    if nucl:
+        def cell(r):
+            v = r["section_v"]
+            ends = " and ".join(f"{x:.0f}" if x is not None else "never" for x in v["onset_ends"]) or "–"
+            return (f"#{r['run']}: interior bands begin at rotations "
+                    f"{', '.join(f'{x:.0f}' for x in v['onset_interior'])} ({len(v['onset_interior'])} of "
+                    f"{v['onset_interior_bands']}), the end bands at {ends}")
+        cells = "; ".join(cell(r) for r in nucl)
+        rows.append(f"| capped runs: formation begins at several places at once; the ends are not nucleation sites "
+                    f"| {cells} | {', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in nucl)} |")
     # Sec. V.A-B: a periodic pattern wanders along the axis as a whole, by less
     # than the spacing between alternate bands (Fig. 1); capped ends hold it
     # still (#R, #S). The band speed is the median drift of the boundaries

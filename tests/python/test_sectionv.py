@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from compare.sectionv import (band_speed, contrast, end_species, exchange, interface_width, interfaces,
-                              lasting_below, pattern_excursion)
+                              band_onsets, lasting_below, pattern_excursion)
 
 Y = np.arange(-63.5, 64.0, 1.0)  # 128 slice centres of a drum of L = 128
 
@@ -78,3 +78,51 @@ def test_pattern_excursion_follows_the_dominant_mode():
     exc, lam, rot = pattern_excursion(t, merged, 0.5, 128.0)
     assert lam == pytest.approx(64.0) and rot == pytest.approx(399.0) and exc == pytest.approx(0.01 * 399, rel=1e-3)
     assert pattern_excursion(t, merged, 0.5, 128.0, min_rotations=500.0) is None
+
+
+def test_band_onsets_find_where_formation_starts():
+    """A capped drum of five bands: big at both ends (from rotation 40), three
+    interior bands growing from rotations 10, 12 and 20 (amplitude 0.02 a
+    rotation past their start), and the slice against each cap full of small
+    grains from the start, which must not count as an early end band."""
+    t = np.arange(0.0, 100.0, 0.25)
+    edges = [-64, -50, -20, 10, 45, 64]          # bands: big | small | big | small | big
+    starts = [40.0, 10.0, 12.0, 20.0, 40.0]
+    signs = [-1, 1, -1, 1, -1]
+    phi = np.full((t.size, Y.size), 0.5)
+    for (lo, hi), t0, sg in zip(zip(edges[:-1], edges[1:]), starts, signs):
+        m = (Y > lo) & (Y < hi)
+        phi[:, m] += sg * np.clip(0.02 * (t - t0), 0, 0.45)[:, None]
+    phi[:, 0] = phi[:, -1] = 1.0
+    on = band_onsets(t, Y, phi, 0.5, t_ref=80.0, time_smoothing=0.0, smoothing=0.5)
+    assert [b["species"] for b in on] == ["big", "small", "big", "small", "big"]
+    assert [b["end"] for b in on] == [True, False, False, False, True]
+    # |deviation| passes 0.2 ten rotations after each start
+    assert [b["onset"] for b in on] == pytest.approx([50.0, 20.0, 22.0, 30.0, 50.0], abs=0.3)
+    # a band that never passes the level has no onset
+    assert band_onsets(t, Y, 0.5 + 0.5 * (phi - 0.5) * 0.3, 0.5, 80.0, time_smoothing=0.0)[1]["onset"] is None
+
+
+def test_section_v_command_prints_each_runs_measures(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    import h5py
+    from synthetic import banded_y, random_bed, species_and_diameters, write_drum_run
+    rng = np.random.default_rng(5)
+    sp, d = species_and_diameters(rng, 2000)
+    beds = [random_bed(rng, 2000, y=banded_y(rng, sp, 6)) for _ in range(12)]
+    path = tmp_path / "six.h5"
+    write_drum_run(path, np.array(beds), sp, d)
+    with h5py.File(path, "r+") as f:
+        scene = json.loads(f.attrs["scene_json"])
+        scene["particles"] = {"initial_state": "mixed"}
+        f.attrs["scene_json"] = json.dumps(scene)
+    r = subprocess.run([sys.executable, "-m", "compare", "section-v", str(path)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    v = json.loads(r.stdout)[str(path)]
+    assert v["contrast_last_tenth"] > 0.1 and "band_speed_median" in v
+    missing = tmp_path / "missing.h5"
+    r = subprocess.run([sys.executable, "-m", "compare", "section-v", str(missing)], capture_output=True, text=True)
+    assert r.returncode == 2 and str(missing) in r.stderr and len(r.stderr.strip().splitlines()) == 1

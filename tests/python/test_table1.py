@@ -138,7 +138,8 @@ def test_section_v_rows_pattern_motion_and_odd_counts():
     rows = section_v_lines([
         summary("A", band_speed_median=0.0066, band_speed_tracks=10, pattern_excursion=8.0,
                 pattern_wavelength=32.0, pattern_rotations=900.0),
-        summary("R", bands=5, ends_last_tenth=["big", "big"], band_speed_median=None, band_speed_tracks=0),
+        summary("R", bands=5, ends_last_tenth=["big", "big"], band_speed_median=None, band_speed_tracks=0,
+                onset_interior=[13.5, 15.5, 18.3], onset_interior_bands=4, onset_ends=[34.3, None]),
         summary("X", done=False, ends_last_tenth=["small", "big"], band_speed_median=5.6e-5, band_speed_tracks=2,
                 interface_width_first_tenth=12.8, interface_width_last_tenth=12.3),
     ])
@@ -149,3 +150,6 @@ def test_section_v_rows_pattern_motion_and_odd_counts():
     assert motion[0].endswith("| #A, #X (running) |") and "#R" not in motion[0]
     odd = [r for r in rows if r.startswith("| capped runs: odd band counts")]
     assert len(odd) == 1 and "#R 5 bands, ends big/big" in odd[0] and "#X" not in odd[0]
+    nucl = [r for r in rows if r.startswith("| capped runs: formation begins")]
+    assert len(nucl) == 1 and nucl[0].endswith("| #R |")
+    assert "#R: interior bands begin at rotations 14, 16, 18 (3 of 4), the end bands at 34 and never" in nucl[0]
