@@ -283,12 +283,23 @@ def plot_ramps(ramps, path, level):
     return path
 
 
+# The paper: going up the transition occurs "almost exactly at the same
+# frequency as when decreasing the frequency, i.e. there is no hysteresis", and
+# runs differ by "less than 0.05 Hz". The margin for up - down is that
+# resolution (docs/shaken_box.md, "The ramp").
+HYSTERESIS_MARGIN = 0.05
+
+
 def ramp_groups(ramps):
     """The ramp claim over packings: per ramp rate and big disk, the onset
     going up and the switch-off going down (mean, sd, range over packings: the
     transition's width between runs), and the hysteresis up - down with its
-    95 % interval (Welch's t, statsmodels' CompareMeans)."""
+    95 % interval (Welch's t, statsmodels' CompareMeans) and its verdict
+    against +-HYSTERESIS_MARGIN (compare/decision.py: verdict_independent,
+    the three-way rule of the cross-engine suites)."""
     from statsmodels.stats.weightstats import CompareMeans
+
+    from .decision import verdict_independent
     groups = {}
     for r in ramps:
         rate = abs(r["f_end"] - r["f_start"]) / r["ramp_time"] if r.get("ramp_time") else None
@@ -306,6 +317,10 @@ def ramp_groups(ramps):
             lo, hi = CompareMeans.from_data(row["up"], row["down"]).tconfint_diff(alpha=0.05, usevar="unequal")
             row["hysteresis"] = float(np.mean(row["up"]) - np.mean(row["down"]))
             row["hysteresis_ci95"] = [float(lo), float(hi)]
+            v = verdict_independent(row["down"], row["up"], HYSTERESIS_MARGIN)
+            row["hysteresis_verdict"] = v["verdict"]
+            row["hysteresis_ci90"] = [float(x) for x in v["ci90"]]
+            row["hysteresis_mdd"] = v["mdd"]
         elif row["up"] and row["down"]:
             row["hysteresis"] = float(np.mean(row["up"]) - np.mean(row["down"]))
         out.append(row)
@@ -384,14 +399,19 @@ def summary_markdown(res) -> str:
             if len(v) == 1:
                 return f"{v[0]:.3f}"
             return f"{np.mean(v):.3f} ± {np.std(v, ddof=1):.3f} (range {max(v) - min(v):.3f})"
-        lines += ["", "| ramp rate (Hz/s) | big disk | on, going up: mean ± sd over packings | off, going down | "
-                  "hysteresis up − down (95 % interval) |", "|---|---|---|---|---|"]
+        lines += ["", "| ramp rate (Hz/s) | big disk | packings up + down | on, going up: mean ± sd over packings | "
+                  "off, going down | hysteresis up − down (95 % interval) | 90 % interval | "
+                  f"verdict (margin ±{HYSTERESIS_MARGIN:g} Hz) |", "|---|---|---|---|---|---|---|---|"]
         for g in res["ramp_groups"]:
             hy = "–" if "hysteresis" not in g else f"{g['hysteresis']:+.3f} Hz"
             if "hysteresis_ci95" in g:
                 hy += f" [{g['hysteresis_ci95'][0]:+.3f}, {g['hysteresis_ci95'][1]:+.3f}]"
+            ci90 = (f"[{g['hysteresis_ci90'][0]:+.3f}, {g['hysteresis_ci90'][1]:+.3f}]"
+                    if "hysteresis_ci90" in g else "–")
             lines.append(f"| {g['rate_hz_per_s'] if g['rate_hz_per_s'] is None else format(g['rate_hz_per_s'], 'g')} | "
-                         f"{'yes' if g['big_disk'] else 'no'} | {spread(g['up'])} | {spread(g['down'])} | {hy} |")
+                         f"{'yes' if g['big_disk'] else 'no'} | {len(g['up'])} + {len(g['down'])} | "
+                         f"{spread(g['up'])} | {spread(g['down'])} | {hy} | {ci90} | "
+                         f"{g.get('hysteresis_verdict', '–')} |")
     if "ramps" in res:
         lines += ["", f"| ramp | big disk | convection on/off at (depth-mean Φ > {res['ramp_level']:g}) |",
                   "|---|---|---|"]

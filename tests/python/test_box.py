@@ -598,6 +598,11 @@ def test_ramp_groups_hysteresis():
     assert g["hysteresis_ci95"][0] > 0
     same = ramp_groups([dict(r, onset=2.7 + 0.01 * (i % 3)) for i, r in enumerate(rows)])[0]
     assert same["hysteresis_ci95"][0] < 0 < same["hysteresis_ci95"][1]
+    # the verdict against the paper's 0.05 Hz: 0.06 apart is different, the same onsets equivalent,
+    # and onsets too scattered to bound within 0.05 inconclusive
+    assert g["hysteresis_verdict"] == "different" and same["hysteresis_verdict"] == "equivalent"
+    wide = ramp_groups([dict(r, onset=2.7 + 0.08 * ((i % 4) - 1.5)) for i, r in enumerate(rows)])[0]
+    assert wide["hysteresis_verdict"] == "inconclusive" and wide["hysteresis_ci90"][1] > 0.05
 
 
 def test_placement_and_forces_commands_refuse_missing_files():
