@@ -264,21 +264,41 @@ def onset_from_ramp(windows, level):
 
 
 def plot_ramps(ramps, path, level):
-    fig = Figure(figsize=(8, 4.5), layout="constrained")
-    ax = fig.add_subplot()
+    """Phi along each ramp: up red, down blue, the slower ramps dark and
+    thicker; one legend entry per rate, direction and disk. The right panel
+    zooms on the transition, with each run's switch marked on the level line."""
+    fig = Figure(figsize=(10, 4.5), layout="constrained")
+    axes = fig.subplots(1, 2, width_ratios=[3, 2])
+    rates = sorted({r["ramp_time"] for r in ramps})
+    seen = set()
     for r in ramps:
         f = [w["frequency"] for w in r["windows"]]
         p = [w["phi_depth_mean"] for w in r["windows"]]
         up = r["f_end"] > r["f_start"]
-        style = "-" if up else "--"
-        lbl = f"{'up' if up else 'down'} {r['f_start']:g}→{r['f_end']:g} Hz, {'with' if r['big_disk'] else 'no'} big disk"
+        slow = r["ramp_time"] != rates[0]
+        rate = abs(r["f_end"] - r["f_start"]) / r["ramp_time"] if r["ramp_time"] else 0.0
+        colour = ("darkred" if slow else "tab:red") if up else ("navy" if slow else "tab:blue")
+        key = (up, rate, r["big_disk"])
+        lbl = None
+        if key not in seen:
+            seen.add(key)
+            n = sum(1 for q in ramps if (q["f_end"] > q["f_start"], abs(q["f_end"] - q["f_start"]) / q["ramp_time"]
+                                         if q["ramp_time"] else 0.0, q["big_disk"]) == key)
+            lbl = (f"{'up' if up else 'down'} {r['f_start']:g}→{r['f_end']:g} Hz at {rate:g} Hz/s, "
+                   f"{'with' if r['big_disk'] else 'no'} big disk ({n} run{'s' if n > 1 else ''})")
+        for ax in axes:
+            ax.plot(f, p, "-" if up else "--", color=colour, lw=1.6 if slow else 0.6, alpha=1.0 if slow else 0.6,
+                    label=lbl if ax is axes[0] else None)
         if r.get("onset") is not None:
-            lbl += f" (on at {r['onset']:.3f} Hz)" if up else f" (off at {r['onset']:.3f} Hz)"
-        ax.plot(f, p, style, lw=1.0, marker=".", ms=3, label=lbl)
-    ax.axhline(level, color="0.4", lw=0.6, ls=":")
-    ax.set_xlabel("shaking frequency f (Hz)")
-    ax.set_ylabel(f"depth-averaged Φ over {ramps[0]['window_cycles']} cycles (particles / cycle)")
-    ax.legend(fontsize=7, loc="upper left")
+            axes[1].plot([r["onset"]], [level], "^" if up else "v", color=colour, ms=5)
+    for ax in axes:
+        ax.axhline(level, color="0.4", lw=0.6, ls=":")
+        ax.set_xlabel("shaking frequency f (Hz)")
+    axes[1].set_xlim(2.55, 2.85)
+    axes[1].set_ylim(-1, 3 * level + 5)
+    axes[1].set_title("the transition; markers: each run's switch", fontsize=9)
+    axes[0].set_ylabel(f"depth-averaged Φ over {ramps[0]['window_cycles']} cycles (particles / cycle)")
+    axes[0].legend(fontsize=7, loc="upper left")
     fig.savefig(path, dpi=130)
     return path
 
