@@ -917,6 +917,8 @@ def _summarise_rows(c):
                 r["convection"] = binomial(sum(conv), len(conv)) if conv else None
                 rose = [x["rose"] for x in oks if "rose" in x]
                 r["rise"] = binomial(sum(rose), len(rose)) if rose else None
+                # the paper: "convection is always present when segregation happens"
+                r["rose_without_convection"] = sum(1 for x in oks if x.get("rose") and not x["convecting"])
             rates = [x["particle_steps_per_second"] for x in r["runs"] if x.get("particle_steps_per_second")]
             r["speed"] = float(np.median(rates)) if rates else None
 
@@ -1200,6 +1202,22 @@ def report_markdown(report):
         for t in report["thresholds"]:
             out.append(f"| {t['case']} | {t['row']} | {_f(t['above_fraction'])} / {_f(t['below_fraction'])} | "
                        f"{_f(t['p'], 2)} | {'shown' if t['present'] else 'NOT shown'} |")
+    grids = [(name, c) for name, c in report.get("cases", {}).items() if c.get("thresholds")]
+    if grids:
+        def onset(t):
+            if t["threshold"] is not None:
+                return f"{t['threshold']:.2f} Hz [{_f(t['lo'])}, {_f(t['hi'])}]"
+            return t["threshold_position"].replace("_", " ")
+        out += ["", "| case | row | convection onset [95 %] | rise onset [95 %] | risen | risen without convection |",
+                "|---|---|---|---|---|---|"]
+        for name, c in grids:
+            for row, t in c["thresholds"].items():
+                rows = [v[row] for v in c["variants"].values() if row in v]
+                risen = sum(r["rise"]["k"] for r in rows if r.get("rise"))
+                runs = sum(r["rise"]["n"] for r in rows if r.get("rise"))
+                alone = sum(r.get("rose_without_convection", 0) for r in rows)
+                out.append(f"| {name} | {row} | {onset(t['convection'])} | {onset(t['rise'])} | {risen} of {runs} | "
+                           f"{alone} |")
     if report.get("detection"):
         out += ["", "| planted error | gating observables moved beyond the margin | called different | missed | "
                 "suite fails |", "|---|---|---|---|---|"]

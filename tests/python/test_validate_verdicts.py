@@ -176,3 +176,29 @@ def test_the_quick_suite_sizes_each_pair_by_the_seeds_both_rows_run():
 def test_pass_probability_is_the_product_of_the_gating_powers():
     table = [{"gating": True, "power": 0.9}, {"gating": True, "power": 0.5}, {"gating": False, "power": 0.1}]
     assert validate.pass_probability(table) == pytest.approx(0.45)
+
+
+def test_box_grid_table_counts_rises_without_convection():
+    """The frequency grid's table: per row the convection and rise onsets and
+    how many risen disks had no convection (the paper: convection is always
+    present when segregation happens); one planted run that rose without
+    convecting is counted."""
+    box = next(c for c in SUITES["full"] if c.name == "box")
+
+    def run(seed, rose, conv):
+        return {"seed": seed, "ok": True, "rose": rose, "convecting": conv, "phi_max": 30.0 if conv else 0.5,
+                "bed_height": 55.0}
+    grid = {"2.6Hz": [(False, False)] * 8, "2.8Hz": [(False, True)] * 6 + [(True, True)] * 2,
+            "3Hz": [(True, True)] * 6 + [(False, True)] * 2, "3.2Hz": [(True, True)] * 7 + [(True, False)]}
+    c = {"kind": "box", "case": box,
+         "variants": {v: {"native-leapfrog": {"runs": [run(i + 1, r, k) for i, (r, k) in enumerate(x)]}}
+                      for v, x in grid.items()}}
+    validate._summarise_rows(c)
+    c["thresholds"] = validate.box_thresholds(c)
+    del c["case"]
+    text = validate.report_markdown({"verdict": "pass", "failures": [], "comparisons": [], "cases": {"box": c}})
+    line = next(l for l in text.splitlines() if l.startswith("| box | native-leapfrog |"))
+    cells = [x.strip() for x in line.strip("|").split("|")]
+    assert cells[4] == "16 of 32" and cells[5] == "1"
+    assert cells[2].startswith("2.70 Hz")  # convection crosses one half between 2.6 (0/8) and 2.8 Hz (8/8)
+    assert cells[3].startswith("2.9")  # the rise crosses one half between 2.8 (2/8) and 3.0 Hz (6/8)
