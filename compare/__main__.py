@@ -2,6 +2,7 @@
 
     python3 -m compare quicklook OUT.h5 -o PLOT.png     space-time plot only
     python3 -m compare observe OUT.h5 --json            every observable as JSON
+    python3 -m compare section-v RUN.h5...              drum: Section V's long-run measures as JSON
     python3 -m compare plot OUT.h5 -o DIR               every figure
     python3 -m compare table1 RUN_DIR -o docs/table1.md  the Table I reproduction
     python3 -m compare campaign-status DIR              how far a Table I campaign has got
