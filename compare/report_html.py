@@ -284,11 +284,14 @@ def write_report(report, outdir, name="report"):
                 out.append(f"<tr><td>{esc(vname)}</td><td>{esc(row)}</td>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")
         out.append("</table>")
         if case.get("thresholds"):
-            out.append("<table><tr><th>row</th><th>convection onset (Hz) [interval]</th><th>rise threshold (Hz) [interval]</th></tr>")
+            out.append("<table><tr><th>row</th><th>convection onset (Hz) [interval]</th><th>rise threshold (Hz) [interval]</th>"
+                       "<th>risen without convection</th></tr>")
             for row, t in case["thresholds"].items():
                 def th(x):
                     return f"{_fmt(x['threshold'])} [{_fmt(x['lo'])}, {_fmt(x['hi'])}] {x.get('threshold_position') or ''}"
-                out.append(f"<tr><td>{esc(row)}</td><td>{esc(th(t['convection']))}</td><td>{esc(th(t['rise']))}</td></tr>")
+                alone = sum(v[row].get("rose_without_convection", 0) for v in case["variants"].values() if row in v)
+                out.append(f"<tr><td>{esc(row)}</td><td>{esc(th(t['convection']))}</td><td>{esc(th(t['rise']))}</td>"
+                           f"<td>{alone}</td></tr>")
             out.append("</table>")
         for p in figs.get(cname, []):
             out.append(f"<p><img src='{esc(Path(p).name)}' alt='{esc(Path(p).stem)}'></p>")

@@ -202,3 +202,24 @@ def test_box_grid_table_counts_rises_without_convection():
     assert cells[4] == "16 of 32" and cells[5] == "1"
     assert cells[2].startswith("2.70 Hz")  # convection crosses one half between 2.6 (0/8) and 2.8 Hz (8/8)
     assert cells[3].startswith("2.9")  # the rise crosses one half between 2.8 (2/8) and 3.0 Hz (6/8)
+
+
+def test_html_report_shows_the_rises_without_convection(tmp_path):
+    """The HTML report's grid table counts the one packing (of eight at
+    3.2 Hz) whose disk rose without convection."""
+    from compare.report_html import write_report
+    box = next(c for c in SUITES["full"] if c.name == "box")
+    runs = [{"seed": i + 1, "ok": True, "rose": True, "convecting": i != 7, "phi_max": 30.0, "bed_height": 55.0}
+            for i in range(8)]
+    still = [dict(r, rose=False, convecting=False) for r in runs]
+    c = {"kind": "box", "case": box, "scene": box.scene, "sets": box.sets, "seeds": box.seeds,
+         "variants": {"2.6Hz": {"native-leapfrog": {"runs": still}}, "3.2Hz": {"native-leapfrog": {"runs": runs}}}}
+    validate._summarise_rows(c)
+    c["thresholds"] = validate.box_thresholds(c)
+    del c["case"]
+    write_report({"suite": "full", "created": "now", "verdict": "pass", "failures": [], "comparisons": [],
+                  "thresholds": [], "cases": {"box": c}}, tmp_path)
+    html = (tmp_path / "report.html").read_text()
+    assert "<th>risen without convection</th>" in html
+    rows = [r for r in html.split("<tr>") if r.startswith("<td>native-leapfrog</td>") and r.count("<td>") == 4]
+    assert len(rows) == 1 and rows[0].split("</tr>")[0].endswith("<td>1</td>")
