@@ -141,7 +141,9 @@ def band_onsets(t, y, phi, mean, t_ref, level=ONSET_LEVEL, smoothing=2.0, time_s
     the slice against each cap is left out (mostly small grains whatever the
     band, see end_species). Returns one dict a band, in axial order: y_lo,
     y_hi (slice centres), species ("small" or "big"), end (touches a cap),
-    onset (rotations; None if not by the end of the run)."""
+    onset (rotations; None if not by the end of the run). With periodic ends
+    a band that wraps across the boundary is one band, listed first, its
+    y_lo above its y_hi."""
     t = np.asarray(t, float)
     raw = np.nan_to_num(np.asarray(phi, float) - mean)
     if not periodic:
@@ -154,8 +156,11 @@ def band_onsets(t, y, phi, mean, t_ref, level=ONSET_LEVEL, smoothing=2.0, time_s
     sign = np.sign(ref)
     cuts = np.nonzero(sign[1:] != sign[:-1])[0] + 1
     over = np.abs(dev) > level
+    segs = np.split(np.arange(ref.size), cuts)
+    if periodic and len(segs) > 1 and sign[0] == sign[-1]:  # one band across the periodic boundary
+        segs = [np.concatenate([segs[-1], segs[0]])] + segs[1:-1]
     out = []
-    for seg in np.split(np.arange(ref.size), cuts):
+    for seg in segs:
         hit = over[:, seg].any(axis=1)
         out.append({"y_lo": float(y[seg[0]]), "y_hi": float(y[seg[-1]]),
                     "species": "small" if sign[seg[0]] > 0 else "big",

@@ -99,6 +99,12 @@ def test_band_onsets_find_where_formation_starts():
     assert [b["end"] for b in on] == [True, False, False, False, True]
     # |deviation| passes 0.2 ten rotations after each start
     assert [b["onset"] for b in on] == pytest.approx([50.0, 20.0, 22.0, 30.0, 50.0], abs=0.3)
+    # periodic: the big band that wraps across y = +-64 is one band
+    wrap = phi[:, 1:-1]  # the two big end bands meet across the boundary
+    on = band_onsets(t, Y[1:-1], wrap, 0.5, t_ref=80.0, time_smoothing=0.0, smoothing=0.5, periodic=True)
+    assert [b["species"] for b in on] == ["big", "small", "big", "small"]
+    assert on[0]["y_lo"] > on[0]["y_hi"] and not any(b["end"] for b in on)
+    assert on[0]["onset"] == pytest.approx(50.0, abs=0.3)
     # a band that never passes the level has no onset
     assert band_onsets(t, Y, 0.5 + 0.5 * (phi - 0.5) * 0.3, 0.5, 80.0, time_smoothing=0.0)[1]["onset"] is None
 
