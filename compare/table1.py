@@ -193,6 +193,9 @@ def section_v_lines(summaries):
         return f"{r['rotations_reached']:.0f} of {r['rotations_requested']:g} rotations" + \
             ("" if r["done"] else " (running)")
 
+    def runs_cell(rs):
+        return ", ".join("#" + r["run"] + ("" if r["done"] else " (running)") for r in rs)
+
     rows = []
     for rid in "VX":
         if rid in by and by[rid].get("section_v"):
@@ -223,7 +226,7 @@ def section_v_lines(summaries):
         cells = "; ".join(f"#{r['run']} {r['bands_final']} bands, ends {'/'.join(r['section_v']['ends_last_tenth'])}"
                           for r in capped)
         rows.append(f"| capped runs: odd band counts, the rougher big particles at both ends | {cells} | "
-                    f"{', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in capped)} |")
+                    f"{runs_cell(capped)} |")
     # Sec. V.B: with caps, formation starts at several interior places, not at the ends
     nucl = [r for r in capped if r["section_v"].get("onset_interior")]
     if nucl:
@@ -235,7 +238,7 @@ def section_v_lines(summaries):
                     f"{v['onset_interior_bands']}), the end bands at {ends}")
         cells = "; ".join(cell(r) for r in nucl)
         rows.append(f"| capped runs: formation begins at several places at once; the ends are not nucleation sites "
-                    f"| {cells} | {', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in nucl)} |")
+                    f"| {cells} | {runs_cell(nucl)} |")
     # Sec. V.A-B: a periodic pattern wanders along the axis as a whole, by less
     # than the spacing between alternate bands (Fig. 1); capped ends hold it
     # still (#R, #S). The band speed is the median drift of the boundaries
@@ -255,12 +258,12 @@ def section_v_lines(summaries):
                           f"{motion(r['section_v'])}" for r in moving)
         rows.append(f"| periodic patterns wander along the axis, by less than the spacing between alternate bands; "
                     f"capped ones stay still | {cells} | "
-                    f"{', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in moving)} |")
+                    f"{runs_cell(moving)} |")
     blur = [r for r in summaries if r["run"] in "APQ" and r.get("section_v")]
     if len(blur) > 1:
         cells = "; ".join(f"#{r['run']} {r['section_v']['contrast_last_tenth']:.3f}" for r in blur)
         rows.append(f"| #P, #Q (fuller drums) blur: less contrast than #A | band contrast over the last tenth: "
-                    f"{cells} | {', '.join('#' + r['run'] + ('' if r['done'] else ' (running)') for r in blur)} |")
+                    f"{cells} | {runs_cell(blur)} |")
     if not rows:
         return []
     return ["", "## Section V's claims over the runs", "",
