@@ -200,8 +200,10 @@ def main(argv=None):
         if args.design:
             table = design_table(args.suite, cases)
             for d in table:
-                print(f"{d['case']:12s} {d['variant']:6s} {d['pair']:32s} {d['observable']:20s} margin {d['margin']:<5g} "
-                      f"spread {d['spread']!s:6s} runs needed {d['required']!s:5s} runs {d['n']:3d} "
+                print(f"{d['case']:12s} {d['variant']:11s} {d['pair']:32s} {d['observable']:20s} "
+                      f"margin {'–' if d['margin'] is None else format(d['margin'], 'g'):5s} "
+                      f"spread {d['spread']!s:6s} runs needed {'–' if d['required'] is None else d['required']!s:5s} "
+                      f"runs {d['n']:3d} "
                       f"power {d['power']:.3f}  {'gating' if d['gating'] else 'reported'}")
             print(f"a correct engine passes every gating comparison with probability "
                   f"{pass_probability(table):.3f} (designed for at least {SUITE_PASS})")

@@ -325,3 +325,25 @@ def threshold_test(k_above, n_above, k_below, n_below, alpha=0.05):
     reason = (f"{k_above}/{n_above} above against {k_below}/{n_below} below, one-sided Fisher p = {p:.2g}"
               f" {'<' if present else '>='} {alpha:g}")
     return {"present": bool(present), "p": p, "above_fraction": fa, "below_fraction": fb, "reason": reason}
+
+
+@functools.lru_cache(maxsize=100000)
+def _threshold_shown(k_above, n_above, k_below, n_below, alpha):
+    return threshold_test(k_above, n_above, k_below, n_below, alpha)["present"]
+
+
+@functools.lru_cache(maxsize=4096)
+def threshold_power(p_above, n_above, p_below, n_below, alpha=0.05):
+    """Probability that :func:`threshold_test` shows the threshold when the
+    outcome happens with probability p_above in each of n_above runs above it
+    and p_below in each of n_below runs below: exact, summed over every pair
+    of counts."""
+    wa, wb = _binomial_pmf(n_above, p_above), _binomial_pmf(n_below, p_below)
+    total = 0.0
+    for ka in range(n_above + 1):
+        if wa[ka] < 1e-12:
+            continue
+        for kb in range(n_below + 1):
+            if wb[kb] >= 1e-12 and _threshold_shown(ka, n_above, kb, n_below, alpha):
+                total += wa[ka] * wb[kb]
+    return float(total)

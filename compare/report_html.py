@@ -180,7 +180,7 @@ def write_report(report, outdir, name="report"):
     verdict = report["verdict"]
     out.append(f"<h1>Validation report: suite <code>{esc(report['suite'])}</code></h1>")
     out.append(f"<p id='verdict' class='{'pass' if verdict == 'pass' else 'fail'}'>Verdict: <b>{esc(verdict)}</b>"
-               f" ({len(report['failures'])} gating comparisons not equivalent). Created {esc(report['created'])}. "
+               f" ({len(report['failures'])} gating checks failed). Created {esc(report['created'])}. "
                "Rules and margins: docs/tolerances.md. Each comparison ends <i>equivalent</i> (the 90% interval "
                "of the difference lies inside ±margin), <i>different</i> (the 95% interval excludes 0 and reaches "
                "beyond the margin) or <i>inconclusive</i>. Scalars are compared paired by seed (every row starts "
@@ -203,12 +203,14 @@ def write_report(report, outdir, name="report"):
     out.append("</table>")
     if report.get("thresholds"):
         out.append("<h2>Rise threshold per engine</h2><table id='thresholds'><tr><th>case</th><th>row</th>"
-                   "<th>rose above / below</th><th>test</th></tr>")
+                   "<th>rose above / below</th><th>test</th><th>designed power</th><th>role</th></tr>")
         for t in report["thresholds"]:
             cls = ("pass" if t["present"] else "fail") if t["gating"] else "info"
+            d = t.get("design") or {}
             out.append(f"<tr class='{cls}'><td>{esc(t['case'])}</td><td>{esc(t['row'])}</td>"
                        f"<td>{esc(t['above'])}: {_fmt(t['above_fraction'])}; {esc(t['below'])}: "
-                       f"{_fmt(t['below_fraction'])}</td><td>{esc(t['reason'])}</td></tr>")
+                       f"{_fmt(t['below_fraction'])}</td><td>{esc(t['reason'])}</td>"
+                       f"<td>{_fmt(d.get('power'))}</td><td>{'gating' if t['gating'] else esc(d.get('why', 'reported'))}</td></tr>")
         out.append("</table>")
     if report.get("design"):
         out.append("<h2>Sample sizes</h2>")

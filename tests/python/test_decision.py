@@ -236,3 +236,19 @@ def test_threshold_test():
     assert threshold_test(10, 10, 0, 10)["p"] == pytest.approx(1 / 184756)  # 1 / C(20, 10)
     assert not threshold_test(3, 6, 1, 6)["present"]
     assert not threshold_test(0, 10, 10, 10)["present"]  # one-sided: rising below, not above, is no threshold
+
+
+def test_threshold_power_is_exact():
+    from scipy import stats as st
+
+    from compare.decision import threshold_power
+    # 4 of 4 against 0 of 4: p = 1 / C(8, 4) = 0.014, shown; 3 of 3 against
+    # 0 of 3: p = 1 / C(6, 3) = 0.05, not below 0.05
+    assert threshold_power(1.0, 4, 0.0, 4) == pytest.approx(1.0)
+    assert threshold_power(1.0, 3, 0.0, 3) == pytest.approx(0.0)
+    # eight runs a side and none rising below: the test needs 4 of 8 above
+    # (C(8, 4) / C(16, 4) = 0.038; 3 of 8 gives 0.1), so the power is
+    # P(Binomial(8, p) >= 4)
+    assert threshold_power(0.45, 8, 0.0, 8) == pytest.approx(st.binom.sf(3, 8, 0.45))
+    # rising as often below as above: shown only by chance, at most alpha
+    assert threshold_power(0.5, 20, 0.5, 20) < 0.05

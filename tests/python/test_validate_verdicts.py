@@ -223,3 +223,39 @@ def test_html_report_shows_the_rises_without_convection(tmp_path):
     assert "<th>risen without convection</th>" in html
     rows = [r for r in html.split("<tr>") if r.startswith("<td>native-leapfrog</td>") and r.count("<td>") == 4]
     assert len(rows) == 1 and rows[0].split("</tr>")[0].endswith("<td>1</td>")
+
+
+def test_a_threshold_test_gates_only_where_its_design_has_power():
+    """The full suite's box grid (the disk on the floor, eight packings, rising
+    in about 0.45 of them within 60 s at 3.2 Hz) cannot show a threshold with
+    power: its test is reported and a miss does not fail the suite; the
+    box_threshold case (the disk 15 cm up) gates every row."""
+    full = {c.name: c for c in SUITES["full"]}
+    d = validate.threshold_design(full["box"], "native-leapfrog")
+    assert not d["gating"] and 0.4 < d["power"] < 0.6 and "reported" in d["why"]
+    for row in full["box_threshold"].rows:
+        assert validate.threshold_design(full["box_threshold"], row)["gating"], row
+    assert not any(full["box_threshold"].compared.values())  # it compares nothing pairwise
+
+    def case_runs(k, n):
+        return {"runs": [{"seed": i + 1, "ok": True, "rose": i < k} for i in range(n)]}
+    for name, k_above, expect_gating, expect_present in (("box", 3, False, False),
+                                                          ("box_threshold", 12, True, True)):
+        case = full[name]
+        n_above = len(case.seeds_of("3.2Hz", "native"))
+        c = {"case": case, "variants": {"3.2Hz": {"native-leapfrog": case_runs(k_above, n_above)},
+                                        "2.6Hz": {"native-leapfrog": case_runs(0, len(case.seeds_of("2.6Hz", "native")))}}}
+        (t,) = validate._thresholds(name, c, {"native-leapfrog"})
+        assert t["gating"] is expect_gating and t["present"] is expect_present
+
+
+def test_the_full_suite_gates_each_engines_rise_threshold():
+    table = design_table("full")
+    rows = {d["pair"] for d in table if d["observable"] == "rise threshold" and d["gating"]}
+    assert rows == {"native-leapfrog", "lammps", "native-viscel", "yade"}
+    assert all(d["case"] == "box_threshold" for d in table if d["observable"] == "rise threshold" and d["gating"])
+
+
+def test_no_planted_errors_where_nothing_is_compared():
+    jobs = validate.mutant_jobs("full", "/nonexistent", ["gravity_5pc"], cases=["box_threshold"])
+    assert jobs == []
