@@ -72,6 +72,10 @@ def test_every_suite_observable_has_a_margin_and_a_design():
                 for k in observables:
                     assert k in MARGINS, (suite, case.name, k)
                     assert (variant, k) in case.design, (suite, case.name, variant, k)
+            # every variant named in the case is one it runs (box: f"{f:g}Hz", so 3 Hz is "3Hz")
+            names = {v for v, _ in case.variants()}
+            assert set(case.compared) <= names, (suite, case.name, set(case.compared) - names)
+            assert {v for v, _ in case.design} <= names, (suite, case.name)
 
 
 def test_the_quick_suite_gates_the_three_headline_observables():
