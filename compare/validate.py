@@ -1007,7 +1007,7 @@ def _thresholds(name, c, gating_rows):
             continue
         t = threshold_test(sum(x["rose"] for x in ra), len(ra), sum(x["rose"] for x in rb), len(rb))
         d = threshold_design(case, row)
-        out.append({"case": name, "row": row, "above": above, "below": below,
+        out.append({"case": name, "row": row, "above": above, "below": below, "same_model_row": row in gating_rows,
                     "gating": row in gating_rows and d["gating"], "design": d} | t)
     return out
 
@@ -1248,7 +1248,7 @@ def report_markdown(report):
                     "designed power | role |", "|---|---|---|---|---|---|---|"]
         for t in report["thresholds"]:
             d = t.get("design") or {}
-            role = "gating" if t.get("gating") else ("reported: power" if d.get("power") is not None else "model")
+            role = "gating" if t.get("gating") else ("model" if not t.get("same_model_row", True) else "reported: power")
             out.append(f"| {t['case']} | {t['row']} | {_f(t['above_fraction'])} / {_f(t['below_fraction'])} | "
                        f"{_f(t['p'], 2)} | {'shown' if t['present'] else 'NOT shown'} | {_f(d.get('power'), 2)} | "
                        f"{role} |")
