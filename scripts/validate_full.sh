@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # The full cross-engine suite (docs/tolerances.md, "The full suite") as a
-# restartable background job: every engine, 48 drum seeds and eight box
-# packings a frequency (about 9 CPU-hours on this machine), then the same
-# suite's planted errors (--mutants all, about 5 more).
+# restartable background job: every engine, 48 drum seeds, eight box packings
+# a frequency and the box_threshold runs (about 13.5 CPU-hours on this
+# machine, YADE 7 of them), then the suite's planted errors (--mutants all,
+# about 5 more).
+
 #
 #   scripts/validate_full.sh [DIR] [LANES]     start, or resume after any interruption
 #
