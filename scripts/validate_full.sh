@@ -4,7 +4,6 @@
 # a frequency and the box_threshold runs (about 13.5 CPU-hours on this
 # machine, YADE 7 of them), then the suite's planted errors (--mutants all,
 # about 5 more).
-
 #
 #   scripts/validate_full.sh [DIR] [LANES]     start, or resume after any interruption
 #
