@@ -18,6 +18,9 @@
 #   force_f{2.45,2.6,2.65,2.7,2.8}_{big,nobig}_sS  the force ratio: 30 s, 8 frames a cycle, packings 1-30
 # About 2.5 core-hours on this machine, the force-ratio runs (300) about 45 core-minutes,
 # the ramps (32 and 2 slow ones) about 1 core-hour.
+# The body is one block, read whole before it runs: editing this file while
+# the job runs (it runs from the working tree) cannot change what it does.
+{
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 dir="$(realpath -m "${1:-/var/lib/granular/box}")"
@@ -78,3 +81,5 @@ fi
 /usr/bin/python3 -m compare box-forces --big "$O"/force_f*_big_s*.h5 --nobig "$O"/force_f*_nobig_s*.h5 \
   >"$dir/report/forces.md"
 echo "report in $dir/report"
+exit
+}

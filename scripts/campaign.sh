@@ -14,6 +14,9 @@
 # a group of its own) gives its group the same niceness, so that it yields the
 # cores to interactive work. Started otherwise, it leaves alone the group it
 # shares with whatever started it.
+# The body is one block, read whole before it runs: editing this file while
+# the job runs (it runs from the working tree) cannot change what it does.
+{
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${GRANULAR_BIN:-$here/build/granular}"
@@ -36,3 +39,5 @@ run_one() {
 }
 export -f run_one; export here bin niceness
 grep -v '^\s*#' "$jobs" | grep -v '^\s*$' | xargs -P "$lanes" -L 1 bash -c 'run_one "$@"' _
+exit
+}

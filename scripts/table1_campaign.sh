@@ -24,6 +24,9 @@
 # in the repository: ten snapshots a run, and the axial profile every rotation
 # (every k-th rotation, k = rotations/5000 rounded, for runs longer than 7500);
 # #J and #K also the last 10 configurations, 5 rotations apart (Fig. 9).
+# The body is one block, read whole before it runs: editing this file while
+# the job runs (it runs from the working tree) cannot change what it does.
+{
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 status=0
@@ -67,3 +70,5 @@ print(d["particles"] * d["steps_total"], sys.argv[1], sys.argv[2], rot, snap, pr
 fi
 
 GRANULAR_BIN="$dir/engine/granular" exec "$here/scripts/campaign.sh" "$jobs" "$lanes"
+exit
+}

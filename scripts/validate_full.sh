@@ -17,6 +17,9 @@
 # (campaign/validate_full/); where the default DIR is missing (a new machine),
 # the suite continues from them, with the code of their commit, and runs only
 # what they lack.
+# The body is one block, read whole before it runs: editing this file while
+# the job runs (it runs from the working tree) cannot change what it does.
+{
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 dir="$(realpath -m "${1:-/var/lib/granular/validate_full}")"
@@ -29,3 +32,5 @@ export GRANULAR_BIN="$dir/engine/granular"
 # The suite's exit status says whether it passed; the mutants run either way.
 nice -n 19 /usr/bin/python3 -m compare validate --suite full -o "$dir/out" --lanes "$lanes" || true
 exec nice -n 19 /usr/bin/python3 -m compare validate --suite full -o "$dir/out" --lanes "$lanes" --mutants all
+exit
+}
