@@ -218,7 +218,7 @@ SUITES = {
         # packings at 3.2 Hz, and eight packings a frequency show the threshold
         # with probability 0.52 only (threshold_design). Here, started 15 cm up,
         # the disk rises at 3.2 Hz in 0.98 of the packings within 12 s and at
-        # 2.6 Hz in none: power 1.00 in every row, about 30 CPU-minutes. Its
+        # 2.6 Hz in none: power 1.00 in every row, 45 CPU-minutes. Its
         # pairwise comparisons are the quick suite's; nothing is compared here.
         Case("box_threshold", "box", "scenes/box/f3.0_big.toml", ["run.duration=12", "big.gap=15"],
              list(range(1, 11)), ["native-leapfrog", "lammps", "native-viscel", "yade"],
