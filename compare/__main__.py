@@ -146,7 +146,7 @@ def main(argv=None):
     va.add_argument("--rows", default=None,
                     help="comma-separated subset of rows (native-paper, native-linear, lammps, native-viscel, yade)")
     va.add_argument("--cases", default=None, help="comma-separated subset of the suite's cases (quick: drum_short, "
-                    "box_rise; full: drum_A, box); the report covers only these")
+                    "box_rise; full: drum_A, box, box_threshold); the report covers only these")
     va.add_argument("--mutants", default=None,
                     help="also run the native rows of the gating pairs with planted model errors and report which the "
                          "suite calls different: comma-separated names or 'all' (compare/validate.py MUTANTS); "
