@@ -269,20 +269,26 @@ def _binomial_pmf(n, p):
     return stats.binom.pmf(np.arange(n + 1), n, p)
 
 
-def proportion_power(p_a, p_b, n_a, n_b, margin, alpha=0.05, outcome="equivalent"):
-    """Probability that :func:`verdict_proportions` ends in ``outcome`` when the
-    true fractions are p_a and p_b: exact, summed over every pair of counts."""
+def _probability_of_counts(p_a, n_a, p_b, n_b, event):
+    """Probability of event(k_a, k_b) for independent counts k_a ~ Bin(n_a, p_a)
+    and k_b ~ Bin(n_b, p_b): exact, summed over every pair of counts (those of
+    probability below 1e-12 left out)."""
     wa, wb = _binomial_pmf(n_a, p_a), _binomial_pmf(n_b, p_b)
     total = 0.0
     for ka in range(n_a + 1):
         if wa[ka] < 1e-12:
             continue
         for kb in range(n_b + 1):
-            if wb[kb] < 1e-12:
-                continue
-            if _proportion_outcome(ka, n_a, kb, n_b, margin, alpha) == outcome:
+            if wb[kb] >= 1e-12 and event(ka, kb):
                 total += wa[ka] * wb[kb]
     return float(total)
+
+
+def proportion_power(p_a, p_b, n_a, n_b, margin, alpha=0.05, outcome="equivalent"):
+    """Probability that :func:`verdict_proportions` ends in ``outcome`` when the
+    true fractions are p_a and p_b."""
+    return _probability_of_counts(p_a, n_a, p_b, n_b,
+                                  lambda ka, kb: _proportion_outcome(ka, n_a, kb, n_b, margin, alpha) == outcome)
 
 
 @functools.lru_cache(maxsize=100000)
@@ -336,14 +342,6 @@ def _threshold_shown(k_above, n_above, k_below, n_below, alpha):
 def threshold_power(p_above, n_above, p_below, n_below, alpha=0.05):
     """Probability that :func:`threshold_test` shows the threshold when the
     outcome happens with probability p_above in each of n_above runs above it
-    and p_below in each of n_below runs below: exact, summed over every pair
-    of counts."""
-    wa, wb = _binomial_pmf(n_above, p_above), _binomial_pmf(n_below, p_below)
-    total = 0.0
-    for ka in range(n_above + 1):
-        if wa[ka] < 1e-12:
-            continue
-        for kb in range(n_below + 1):
-            if wb[kb] >= 1e-12 and _threshold_shown(ka, n_above, kb, n_below, alpha):
-                total += wa[ka] * wb[kb]
-    return float(total)
+    and p_below in each of n_below runs below."""
+    return _probability_of_counts(p_above, n_above, p_below, n_below,
+                                  lambda ka, kb: _threshold_shown(ka, n_above, kb, n_below, alpha))
