@@ -23,6 +23,8 @@ overall small fraction ``mean``.
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
@@ -229,7 +231,8 @@ def section_v(run, obs):
         out["onset_interior_bands"] = len([b for b in on if not b["end"]])
         out["onset_ends"] = [b["onset"] for b in on if b["end"]]
     if not periodic:
-        with np.errstate(invalid="ignore"):  # a slice empty in every row stays NaN
+        with warnings.catch_warnings():  # a slice empty in every row stays NaN
+            warnings.simplefilter("ignore", RuntimeWarning)
             out["ends_last_tenth"] = end_species(np.nanmean(phi[last], axis=0), mean)
         out["band_count_odd"] = bool((obs["bands"].final or 0) % 2 == 1)
     speed, slopes = band_speed(t, y, phi, mean)

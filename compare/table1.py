@@ -144,12 +144,18 @@ def _earlier_row(r, sc):
            f"{paper.get('rotations') or 0:g} | {r['rotations_reached']:.0f} | {paper.get('bands') or '–'} | "
            f"{_fmt(r.get('bands_early'), 'd')}→{_fmt(r.get('bands_final'), 'd')} | "
            f"{_fmt(r.get('formation_rotations'))} | {'yes' if paper_seg else 'no'} / {'yes' if ours_seg else 'no'} | "
-           f"{'✓' if paper_seg == ours_seg else '✗'} | {_events_text(r['events'])} | "
+           f"{_mark(paper_seg, ours_seg)} | {_events_text(r['events'])} | "
            f"{r['verdict']}: {r['reason']} |")
     return row, paper_seg, ours_seg
 
 
-def _rule_row(rid, sc, paper_seg, ours_seg):
+def _mark(expected, ours, done=True):
+    """✓ where ours matches the expectation; ✗ where it does not and the run is
+    finished; "open" where a running run has not (yet) matched it."""
+    return "✓" if expected == ours else ("✗" if done else "open")
+
+
+def _rule_row(rid, sc, paper_seg, ours_seg, done=True):
     """The friction-rule row of run rid, where Sec. V.A's rule covers it (else None)."""
     fr, parts, drum = sc["friction"], sc["particles"], sc["drum"]
     if not (parts["initial_state"] == "mixed" and drum["ends"] == "periodic" and drum["length"] == 128
@@ -159,7 +165,7 @@ def _rule_row(rid, sc, paper_seg, ours_seg):
             f"{fr['gamma_s_sw']:g} | {parts['big_diameter']:g} | "
             f"{'yes' if paper_rule(fr) else 'no'} | {'yes' if paper_seg else 'no'} | "
             f"{'yes' if ours_seg else 'no'} | "
-            f"{'✓' if paper_rule(fr) == ours_seg else '✗'} |")
+            f"{_mark(paper_rule(fr), ours_seg, done)} |")
 
 
 def plot_band_count(ax, summary, t, counts):
@@ -335,9 +341,9 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None, ear
             f"{paper.get('N', '–')} | {run.frames.n_particles} | {paper.get('rotations', 0):g} | "
             f"{t[-1]:.0f}{'' if done else ' (running)'} | {paper_bands or '–'} | {_fmt(b.early, 'd')}→{_fmt(b.final, 'd')} | "
             f"{_fmt(obs['formation'].formation_time)} | {'yes' if paper_seg else 'no'} / {'yes' if ours_seg else 'no'} | "
-            f"{'✓' if paper_seg == ours_seg else '✗'} | {_events_text(summary['events'])} | "
+            f"{_mark(paper_seg, ours_seg, done)} | {_events_text(summary['events'])} | "
             f"{summary['verdict']}: {summary['reason']} |")
-        rule = _rule_row(rid, sc, paper_seg, ours_seg)
+        rule = _rule_row(rid, sc, paper_seg, ours_seg, done)
         if rule:
             rule_rows.append(rule)
         fig = Figure(figsize=(7, 3.8), layout="constrained")

@@ -153,3 +153,10 @@ def test_section_v_rows_pattern_motion_and_odd_counts():
     nucl = [r for r in rows if r.startswith("| capped runs: formation begins")]
     assert len(nucl) == 1 and nucl[0].endswith("| #R |")
     assert "#R: interior bands begin at rotations 14, 16, 18 (3 of 4), the end bands at 34 and never" in nucl[0]
+
+
+def test_a_running_run_is_open_not_a_disagreement():
+    from compare.table1 import _mark
+    assert _mark(True, True, done=False) == "✓"
+    assert _mark(True, False, done=False) == "open"  # bands may still form
+    assert _mark(True, False) == "✗"
