@@ -15,6 +15,7 @@ Exit status 1 when a gating comparison disagrees.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import json
@@ -142,6 +143,28 @@ class Case:
 
 DRUM_OBSERVABLES = ["slope_deg", "bands_final", "formation_rotations", "formed"]
 
+# The big disk 15 cm above the floor (two to three rows of grains under it
+# after settling): at 3.2 Hz the rolls carry it to the top in 5-10 s in every
+# packing and engine; at 2.6 Hz, below the convection onset, in none
+# (docs/shaken_box.md, "R = 4 cm").
+# Twenty packings at 3.2 Hz, where the time to the top needs them; YADE
+# runs ten at 3.2 Hz and seven at 2.6 Hz, the fewest that give its pair's
+# gating observables there power (docs/tolerances.md, "Sample sizes").
+BOX_RISE = Case("box_rise", "box", "scenes/box/f3.0_big.toml", ["run.duration=12", "big.gap=15"],
+                list(range(1, 11)), ["native-leapfrog", "lammps", "native-viscel", "yade"],
+                frequencies=[2.6, 3.2], timeout=1800,
+                variant_seeds={"3.2Hz": list(range(1, 21))},
+                engine_seeds={"yade": {"2.6Hz": list(range(1, 8)), "3.2Hz": list(range(1, 11))}},
+                compared={"2.6Hz": ["rose", "convecting", "bed_height"],
+                          "3.2Hz": ["rose", "convecting", "phi_max", "top_time_s"]},
+                design={("2.6Hz", "rose"): 0.0, ("2.6Hz", "convecting"): 0.16, ("2.6Hz", "bed_height"): 0.19,
+                        # rose at 3.2 Hz: 786 of the false-alarm study's 800 runs (docs/validation.md)
+                        ("3.2Hz", "rose"): 0.98, ("3.2Hz", "convecting"): 1.0, ("3.2Hz", "phi_max"): 2.7,
+                        # one run's sd, 1.4 s over the false-alarm study's 800 runs, times
+                        # sqrt(2): the packing does not pair the rise times (docs/tolerances.md)
+                        ("3.2Hz", "top_time_s"): 2.0},
+                threshold=("3.2Hz", "2.6Hz"))
+
 SUITES = {
     "quick": [
         # #A's law and geometry cut to L = 32 (1144 particles), 40 rotations at the
@@ -160,27 +183,7 @@ SUITES = {
              # times sqrt(2) (docs/tolerances.md, "Sample sizes")
              design={("", "slope_deg"): 1.2, ("", "bands_final"): 0.85, ("", "formation_rotations"): 8.9,
                      ("", "formed"): 0.88}),
-        # The big disk 15 cm above the floor (two to three rows of grains under it
-        # after settling): at 3.2 Hz the rolls carry it to the top in 5-10 s in every
-        # packing and engine; at 2.6 Hz, below the convection onset, in none
-        # (docs/shaken_box.md, "R = 4 cm").
-        # Twenty packings at 3.2 Hz, where the time to the top needs them; YADE
-        # runs ten at 3.2 Hz and seven at 2.6 Hz, the fewest that give its pair's
-        # gating observables there power (docs/tolerances.md, "Sample sizes").
-        Case("box_rise", "box", "scenes/box/f3.0_big.toml", ["run.duration=12", "big.gap=15"],
-             list(range(1, 11)), ["native-leapfrog", "lammps", "native-viscel", "yade"],
-             frequencies=[2.6, 3.2], timeout=1800,
-             variant_seeds={"3.2Hz": list(range(1, 21))},
-             engine_seeds={"yade": {"2.6Hz": list(range(1, 8)), "3.2Hz": list(range(1, 11))}},
-             compared={"2.6Hz": ["rose", "convecting", "bed_height"],
-                       "3.2Hz": ["rose", "convecting", "phi_max", "top_time_s"]},
-             design={("2.6Hz", "rose"): 0.0, ("2.6Hz", "convecting"): 0.16, ("2.6Hz", "bed_height"): 0.19,
-                     # rose at 3.2 Hz: 786 of the false-alarm study's 800 runs (docs/validation.md)
-                     ("3.2Hz", "rose"): 0.98, ("3.2Hz", "convecting"): 1.0, ("3.2Hz", "phi_max"): 2.7,
-                     # one run's sd, 1.4 s over the false-alarm study's 800 runs, times
-                     # sqrt(2): the packing does not pair the rise times (docs/tolerances.md)
-                     ("3.2Hz", "top_time_s"): 2.0},
-             threshold=("3.2Hz", "2.6Hz")),
+        BOX_RISE,
     ],
     "full": [
         # #A at full length (4664 particles), 40 rotations at the default step
@@ -220,13 +223,8 @@ SUITES = {
         # the disk rises at 3.2 Hz in 0.98 of the packings within 12 s and at
         # 2.6 Hz in none: power 1.00 in every row, 45 CPU-minutes. Its
         # pairwise comparisons are the quick suite's; nothing is compared here.
-        Case("box_threshold", "box", "scenes/box/f3.0_big.toml", ["run.duration=12", "big.gap=15"],
-             list(range(1, 11)), ["native-leapfrog", "lammps", "native-viscel", "yade"],
-             frequencies=[2.6, 3.2], timeout=1800,
-             variant_seeds={"3.2Hz": list(range(1, 21))},
-             engine_seeds={"yade": {"2.6Hz": list(range(1, 8)), "3.2Hz": list(range(1, 11))}},
-             design={("2.6Hz", "rose"): 0.0, ("3.2Hz", "rose"): 0.98},
-             threshold=("3.2Hz", "2.6Hz")),
+        dataclasses.replace(BOX_RISE, name="box_threshold", compared={},
+                            design={k: v for k, v in BOX_RISE.design.items() if k[1] == "rose"}),
     ],
 }
 
@@ -1024,8 +1022,7 @@ def analyse(suite, jobs, metas, mutants=(), false_alarm_repeats=0):
         pairs = DRUM_PAIRS if c["kind"] == "drum" else BOX_PAIRS
         for a, b, gating in pairs:
             comparisons += _pair_comparisons(name, c, a, b, gating)
-        gating_rows = {r for a, b, g in pairs if g for r in (a, b)}
-        thresholds += _thresholds(name, c, gating_rows)
+        thresholds += _thresholds(name, c, set(gating_rows_of(case)))
         if c["kind"] == "box" and len(c["variants"]) > 1:
             c["thresholds"] = box_thresholds(c)
         gate = {(x["variant"], x["a_row"], x["b_row"], x["observable"]): x["gating"] for x in comparisons
