@@ -998,7 +998,9 @@ def _thresholds(name, c, gating_rows):
     out = []
     va, vb = c["variants"].get(above, {}), c["variants"].get(below, {})
     for row in va:
-        if row not in vb:
+        # the case's own rows only: a planted error's or a false-alarm group's
+        # rows ("row+mutant", "row@rK.G") have their own comparisons
+        if row not in vb or row not in ROWS_OF[case.kind]:
             continue
         ra, rb = [x for x in _ok(va[row]) if "rose" in x], [x for x in _ok(vb[row]) if "rose" in x]
         if not ra or not rb:

@@ -253,6 +253,18 @@ def test_a_threshold_test_gates_only_where_its_design_has_power():
         assert t["gating"] is expect_gating and t["present"] is expect_present
 
 
+def test_planted_error_rows_get_no_threshold_test_of_their_own():
+    """A suite run with --mutants has rows such as native-leapfrog+gravity_5pc
+    beside the case's own rows; the threshold tests cover the case's rows only."""
+    case = {c.name: c for c in SUITES["full"]}["box"]
+
+    def runs(k, n):
+        return {"runs": [{"seed": i + 1, "ok": True, "rose": i < k} for i in range(n)]}
+    rows = ("native-leapfrog", "native-leapfrog+gravity_5pc", "native-leapfrog@r0.0")
+    c = {"case": case, "variants": {"3.2Hz": {r: runs(4, 8) for r in rows}, "2.6Hz": {r: runs(0, 8) for r in rows}}}
+    assert [t["row"] for t in validate._thresholds("box", c, {"native-leapfrog"})] == ["native-leapfrog"]
+
+
 def test_the_full_suite_gates_each_engines_rise_threshold():
     table = design_table("full")
     rows = {d["pair"] for d in table if d["observable"] == "rise threshold" and d["gating"]}
