@@ -15,8 +15,9 @@
 #   table1:         DIR/jobs.txt and DIR/runs (outputs, logs, .done marks, and the
 #                   checkpoints of the runs not finished);
 #   validate_full:  each finished run's metadata with its observables,
-#                   DIR/out/runs/*.json (compare/validate.py, "kept observables"),
-#                   and the reports DIR/out/report*; not the runs' outputs.
+#                   DIR/out/runs/*.json (compare/validate.py, "kept observables");
+#                   not the runs' outputs, nor the reports DIR/out/report*, which
+#                   `compare validate` makes again from the kept observables.
 # The files are copied with the job's engines stopped (SIGSTOP, then SIGCONT),
 # so that each is copied as it was at one moment: an output is written in
 # HDF5's single-writer/multiple-reader mode, consistent at every moment, and a
@@ -30,7 +31,7 @@ store="$here/campaign/$name"
 
 kept() {  # the files of DIR to keep, relative to it
   (cd "$1" && case "$name" in
-    validate_full) { find ./out/runs -maxdepth 1 -name '*.json' -type f; find ./out -maxdepth 1 -name 'report*' -type f; } 2>/dev/null ;;
+    validate_full) find ./out/runs -maxdepth 1 -name '*.json' -type f 2>/dev/null ;;
     *) find ./jobs.txt ./runs -type f ! -name '*.tmp' ! -name '*.resuming' 2>/dev/null |
          while read -r f; do  # a finished run's last checkpoint is not needed to go on
            case "$f" in *.h5.ckpt) [ -e "${f%.ckpt}.done" ] && continue ;; esac
