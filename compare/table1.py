@@ -267,8 +267,17 @@ def section_v_lines(summaries):
                     f"{runs_cell(moving)} |")
     blur = [r for r in summaries if r["run"] in "APQ" and r.get("section_v")]
     if len(blur) > 1:
-        cells = "; ".join(f"#{r['run']} {r['section_v']['contrast_last_tenth']:.3f}" for r in blur)
-        rows.append(f"| #P, #Q (fuller drums) blur: less contrast than #A | band contrast over the last tenth: "
+        # Sec. V.A: fuller drums segregate less thoroughly (band contrast),
+        # with less sharp interfaces (width) and bands that take longer to
+        # appear (formation time)
+        def blur_cell(r):
+            v = r["section_v"]
+            return (f"#{r['run']} contrast {v['contrast_last_tenth']:.3f}, interface width "
+                    f"{v['interface_width_last_tenth']:.1f}, bands formed at rotation "
+                    f"{f(r.get('formation_rotations'), '.0f')}")
+        cells = "; ".join(blur_cell(r) for r in blur)
+        rows.append(f"| #P, #Q (fuller drums) blur: less contrast and wider interfaces than #A, #Q more than #P, "
+                    f"and #Q's bands take longer to appear | over the last tenth of each run: "
                     f"{cells} | {runs_cell(blur)} |")
     if not rows:
         return []

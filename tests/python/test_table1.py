@@ -155,6 +155,22 @@ def test_section_v_rows_pattern_motion_and_odd_counts():
     assert "#R: interior bands begin at rotations 14, 16, 18 (3 of 4), the end bands at 34 and never" in nucl[0]
 
 
+def test_section_v_blur_row_reports_contrast_width_and_formation():
+    """#P and #Q's blur (Sec. V.C) is read from the contrast, the interface
+    width and the formation time, beside #A's; one run alone gives no row."""
+    def summary(rid, formation, contrast, width, done=True):
+        return {"run": rid, "done": done, "rotations_reached": 1000.0, "rotations_requested": 1000.0,
+                "bands_final": 6, "events": [], "formation_rotations": formation,
+                "section_v": {"contrast_last_tenth": contrast, "interface_width_last_tenth": width}}
+    assert not [r for r in section_v_lines([summary("A", 18.0, 0.319, 10.2)]) if "fuller drums" in r]
+    rows = [r for r in section_v_lines([summary("A", 18.0, 0.319, 10.2), summary("P", 20.0, 0.176, 13.2),
+                                        summary("Q", None, 0.076, 32.0, done=False)]) if "fuller drums" in r]
+    assert len(rows) == 1
+    assert "#A contrast 0.319, interface width 10.2, bands formed at rotation 18" in rows[0]
+    assert "#Q contrast 0.076, interface width 32.0, bands formed at rotation –" in rows[0]
+    assert rows[0].endswith("| #A, #P, #Q (running) |")
+
+
 def test_a_running_run_is_open_not_a_disagreement():
     from compare.table1 import _mark
     assert _mark(True, True, done=False) == "✓"
