@@ -100,6 +100,10 @@ class FreeSurface:
     min_gap_rotations: if given, the snapshots are chosen from the end of the
         run backwards, each at least this many rotations before the previously
         chosen one (the paper's "separated by several rotations").
+    skip_rotations: snapshots before this many rotations (the collapse from
+        the starting lattice, whose surface is flat) are not averaged
+        (default 2.0). A run with no snapshot past it falls back to its last
+        one, and ``settled`` is then False.
     """
 
     def __init__(self, cell=1.0, frames=10, fit_window=0.5, min_gap_rotations=None, skip_rotations=2.0):
@@ -274,6 +278,8 @@ class FreeSurface:
             "intercept_by_species": {n: v[0] for n, v in by_species_fit.items()},
             "slope_angle_deg_by_species": {n: _angle_deg(v[1]) for n, v in by_species_fit.items()},
             "frames_used": times / period if period else times.copy(),
+            "settled": bool(period is None or self.skip_rotations == 0
+                            or times[0] >= self.skip_rotations * period * (1 - 1e-9)),
             "diameter": diameter,
             "length": length,
         }
@@ -356,6 +362,12 @@ class FreeSurface:
         """Times of the averaged snapshots, in rotations (ascending)."""
         return self._get("frames_used")
 
+    @property
+    def settled(self):
+        """True when every averaged snapshot is past ``skip_rotations`` (or no
+        skip applies); False when the run had none and the last one stood in."""
+        return self._get("settled")
+
     def as_dict(self):
         """Main results as plain JSON-serialisable values (NaN -> None)."""
         r = self._get
@@ -368,6 +380,7 @@ class FreeSurface:
             "fit_range": list(r("fit_range")),
             "extent": list(r("extent")),
             "frames_used": r("frames_used"),
+            "settled": r("settled"),
             "x": r("x"),
             "height": r("height"),
             "height_by_species": r("height_by_species"),

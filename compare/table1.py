@@ -94,7 +94,7 @@ def run_summary(rid, run, obs, done, commit=None):
     pb = parse_paper_bands(paper.get("bands", ""))
     surf = obs.get("surface")
     slope = None
-    if surf is not None:
+    if surf is not None and surf.settled:  # not from the starting lattice alone
         try:
             slope = float(surf.slope_angle_deg)
         except (KeyError, TypeError, ValueError):

@@ -296,7 +296,11 @@ def test_start_up_snapshots_are_skipped(tmp_path):
     np.testing.assert_allclose(fs.frames_used, [2.0, 3.0])
     assert fs.slope_angle_deg == pytest.approx(12.0, abs=0.5)
     only_early = write_run(tmp_path / "early.h5", frames[:2], times_rot=times[:2])
-    np.testing.assert_allclose(FreeSurface().compute(only_early).frames_used, [1.0])  # falls back to the last
+    assert fs.settled
+    early = FreeSurface().compute(only_early)
+    np.testing.assert_allclose(early.frames_used, [1.0])  # falls back to the last
+    assert not early.settled and early.as_dict()["settled"] is False
+    assert FreeSurface(skip_rotations=0).compute(only_early).settled
 
 
 # -- errors, output, plot ------------------------------------------------------------------

@@ -155,6 +155,26 @@ def test_section_v_rows_pattern_motion_and_odd_counts():
     assert "#R: interior bands begin at rotations 14, 16, 18 (3 of 4), the end bands at 34 and never" in nucl[0]
 
 
+def test_no_slope_from_the_starting_lattice_alone(tmp_path):
+    """A long run with a sparse snapshot cadence has, early on, only its
+    starting snapshot: no slope is reported from it (the settled C run has one)."""
+    rng = np.random.default_rng(3)
+    n = 4664
+    sp, d = species_and_diameters(rng, n)
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    period = 2 * np.pi / 0.5
+    write_drum_run(runs / "D.h5", np.array([random_bed(rng, n) for _ in range(3)]), sp, d,
+                   times=np.array([0.0, 0.5, 1.5]) * period)
+    _with_scene(runs / "D.h5", "D", (10, 2, 10, 2), "8->6")
+    write_drum_run(runs / "C.h5", np.array([random_bed(rng, n) for _ in range(6)]), sp, d)
+    _with_scene(runs / "C.h5", "C", (2, 2, 10, 2), "8")
+    table1(runs, tmp_path / "t1.md", tmp_path / "figs")
+    summary = {r["run"]: r for r in json.loads((tmp_path / "t1.json").read_text())["runs"]}
+    assert summary["D"]["slope_deg"] is None
+    assert summary["C"]["slope_deg"] is not None
+
+
 def test_section_v_blur_row_reports_contrast_width_and_formation():
     """#P and #Q's blur (Sec. V.C) is read from the contrast, the interface
     width and the formation time, beside #A's; one run alone gives no row."""
