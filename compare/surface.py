@@ -148,13 +148,17 @@ class FreeSurface:
             raise ValueError(f"{run.path}: drum diameter {diameter} / length {length} must be positive")
         return diameter, length
 
+    def _past_skip(self, time, period):
+        """Whether times are at or past skip_rotations (float-tolerant)."""
+        return time >= self.skip_rotations * period * (1 - 1e-9)
+
     def _select_frames(self, run):
         """Indices (ascending) of the snapshots to average."""
         time = run.frames.time
         n = time.size
         first = 0
         if run.rotation_period is not None and self.skip_rotations > 0:
-            late = np.nonzero(time >= self.skip_rotations * run.rotation_period * (1 - 1e-9))[0]
+            late = np.nonzero(self._past_skip(time, run.rotation_period))[0]
             first = int(late[0]) if late.size else n - 1
         want = (n - first) if self.frames is None else min(self.frames, n - first)
         if self.min_gap_rotations is None:
@@ -278,8 +282,7 @@ class FreeSurface:
             "intercept_by_species": {n: v[0] for n, v in by_species_fit.items()},
             "slope_angle_deg_by_species": {n: _angle_deg(v[1]) for n, v in by_species_fit.items()},
             "frames_used": times / period if period else times.copy(),
-            "settled": bool(period is None or self.skip_rotations == 0
-                            or times[0] >= self.skip_rotations * period * (1 - 1e-9)),
+            "settled": bool(period is None or self.skip_rotations == 0 or self._past_skip(times[0], period)),
             "diameter": diameter,
             "length": length,
         }
