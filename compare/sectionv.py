@@ -239,3 +239,166 @@ def section_v(run, obs):
     out["band_speed_median"] = speed
     out["band_speed_tracks"] = len(slopes)
     return out
+
+
+# ---------------------------------------------------------------------------
+# Verdicts on the claims. Each function takes the measures above and returns
+# (verdict, reason) with verdict "agree", "disagree" or "inconclusive". The
+# margins are fixed here, from the paper's words and from the spread of the
+# measures between runs that the paper calls alike, not from the runs judged.
+
+# Sharp interfaces: over the last tenth of the full-length runs the segregated
+# #A (periodic, mixed start) and #X (capped, segregated start) measure 10.2 and
+# 12.8 small diameters, a spread of 25 %; the paper calls both sharp. A width
+# that grows by no more than that is "no hint of mixing"; one that grows by
+# more than half has blurred as much as #P's edges (1.7 times #A's), which the
+# paper calls "starting to blur". Between the two: inconclusive.
+SHARP_SPREAD = 0.25
+BLUR_GROWTH = 0.50
+# #Y's exchange: the correlation of the profile with the starting one reaches
+# -1 for a full exchange; below -0.5 (the ``exchanged_at`` mark) more than half
+# the drum has swapped, which a space-time plot shows as an exchange. A run
+# whose correlation never falls below -0.25 has at no time swapped even a
+# quarter of it.
+EXCHANGED, NOT_EXCHANGED = -0.5, -0.25
+# #Y's band speed: the paper's "approximately 1 %" per revolution is one
+# segment's gradient read off Fig. 16, so a factor of 3 either way agrees.
+PAPER_BAND_SPEED, SPEED_FACTOR = 0.01, 3.0
+# A pattern held by caps is "completely stationary" (#X): its boundaries move
+# less than a tenth of #Y's speed, under 5.4 small diameters over #X's 5400
+# rotations, half a sharp interface.
+STILL_SPEED = 0.001
+# #Q's contrast against #P's: a mixed drum measures 0.02 (#F-#H), so a fall
+# of 0.05 is beyond that floor; the formation time must at least double.
+CONTRAST_DROP, SLOWER_FORMATION = 0.05, 2.0
+
+
+def combine(parts):
+    """One verdict from several: disagree if any part disagrees, else
+    inconclusive if any part is, else agree. ``parts`` are (verdict, reason)."""
+    verdicts = [v for v, _ in parts]
+    v = "disagree" if "disagree" in verdicts else "inconclusive" if "inconclusive" in verdicts else "agree"
+    return v, "; ".join(r for _, r in parts)
+
+
+def no_mixing_verdict(v):
+    """#V, #X: "no hint of mixing"."""
+    if v.get("mixing_time") is not None:
+        return "disagree", f"the order parameter stays below the mixing threshold from rotation {v['mixing_time']:.0f}"
+    w0, w1 = v["interface_width_first_tenth"], v["interface_width_last_tenth"]
+    growth = w1 / w0 - 1.0 if w0 > 0 else float("inf")
+    text = f"interface width {growth:+.0%} from the first to the last tenth"
+    if growth <= SHARP_SPREAD:
+        return "agree", f"{text}, within the {SHARP_SPREAD:.0%} spread of sharp interfaces"
+    if growth > BLUR_GROWTH:
+        return "disagree", f"{text}, beyond {BLUR_GROWTH:.0%}: the interfaces have blurred"
+    return "inconclusive", f"{text}, between {SHARP_SPREAD:.0%} and {BLUR_GROWTH:.0%}"
+
+
+def mixing_verdict(v):
+    """#W: "the initial bands rapidly vanish as the species mix" (the paper
+    gives no time; the bands must vanish within its run)."""
+    if v.get("mixing_time") is None:
+        return "disagree", "the bands are still there at the end of the run"
+    return "agree", f"mixed from rotation {v['mixing_time']:.0f}"
+
+
+def events_verdict(events):
+    """#Y: "multiple band formation and disappearance events"."""
+    splits = sum(1 for e in events if e["to"] > e["from"] > 0)
+    merges = sum(1 for e in events if 0 < e["to"] < e["from"])
+    text = f"{splits} splits and {merges} merges"
+    if splits and merges and splits + merges >= 2:
+        return "agree", text
+    return "disagree", text
+
+
+def exchange_verdict(v):
+    """#Y: the segregated regions exchange positions at one point of the run."""
+    m = v.get("exchange_min")
+    if m is None:
+        return "inconclusive", "no exchange measure"
+    text = f"correlation with the start reaches {m:.2f}"
+    if m <= EXCHANGED:
+        return "agree", text
+    if m > NOT_EXCHANGED:
+        return "disagree", f"{text}, never below {NOT_EXCHANGED}"
+    return "inconclusive", f"{text}, between {EXCHANGED} and {NOT_EXCHANGED}"
+
+
+def band_speed_verdict(v):
+    """#Y: band speed about 1 % of the small diameter per revolution."""
+    s, n = v.get("band_speed_median"), v.get("band_speed_tracks", 0)
+    if s is None or n == 0:
+        return "inconclusive", "no boundary could be followed"
+    text = f"band speed {s:.2g} d per rotation ({n} boundaries)"
+    lo, hi = PAPER_BAND_SPEED / SPEED_FACTOR, PAPER_BAND_SPEED * SPEED_FACTOR
+    if lo <= s <= hi:
+        return "agree", text
+    return "disagree", f"{text}, outside {lo:.2g}-{hi:.2g}"
+
+
+def capped_ends_verdict(bands_final, ends):
+    """Capped runs started mixed: an odd band count, the big particles at both ends."""
+    odd = bands_final is not None and bands_final % 2 == 1
+    text = f"{bands_final} bands, ends {'/'.join(ends)}"
+    return ("agree" if odd and tuple(ends) == ("big", "big") else "disagree"), text
+
+
+def nucleation_verdict(v):
+    """Capped runs: formation begins at several interior places, not at the ends."""
+    interior = v.get("onset_interior") or []
+    ends = [e for e in v.get("onset_ends", []) if e is not None]
+    first_end = min(ends) if ends else float("inf")
+    before = sum(1 for x in interior if x < first_end)
+    text = f"{before} interior bands begin before the first end band"
+    return ("agree" if before >= 2 else "disagree"), text
+
+
+def wander_verdict(v, capped):
+    """A periodic pattern wanders by less than the spacing between alternate
+    bands (#A, Fig. 1); a capped one stays still (#X)."""
+    if capped:
+        s = v.get("band_speed_median")
+        if s is None:
+            return "inconclusive", "no boundary could be followed"
+        return ("agree" if s <= STILL_SPEED else "disagree"), f"band speed {s:.2g} d per rotation"
+    if v.get("pattern_excursion") is None:
+        return "inconclusive", "no stretch of 200 rotations with one dominant mode"
+    ratio = v["pattern_excursion"] / v["pattern_wavelength"]
+    return ("agree" if ratio < 1.0 else "disagree"), f"{ratio:.2f} of the alternate-band spacing"
+
+
+def wander_many_verdict(ratios):
+    """One periodic scene over several runs, each excursion as a fraction of
+    the alternate-band spacing: the paper's "the fluctuations tend to be less
+    than the spacing" agrees when every run stays under one spacing and
+    disagrees when the median does not."""
+    r = np.asarray(ratios, float)
+    text = f"{r.min():.2f}-{r.max():.2f} of the alternate-band spacing, median {np.median(r):.2f}"
+    if r.max() < 1.0:
+        return "agree", text
+    if np.median(r) >= 1.0:
+        return "disagree", text
+    return "inconclusive", text
+
+
+def blur_verdict(a, p, q):
+    """#P: "the band edges are starting to blur" (wider interfaces than #A);
+    #Q: less thorough segregation than #P (contrast) and bands that take
+    longer to appear. ``a``, ``p``, ``q``: (section_v measures, formation
+    rotation or None)."""
+    (va, fa), (vp, fp), (vq, fq) = a, p, q
+    ratio = vp["interface_width_last_tenth"] / va["interface_width_last_tenth"]
+    width = (("agree" if ratio >= 1 + SHARP_SPREAD else "disagree" if ratio <= 1.0 else "inconclusive"),
+             f"#P's interfaces {ratio:.2f} times #A's")
+    drop = vp["contrast_last_tenth"] - vq["contrast_last_tenth"]
+    con = (("agree" if drop >= CONTRAST_DROP else "disagree" if drop <= 0 else "inconclusive"),
+           f"#Q's contrast {drop:.3f} below #P's")
+    if fq is None:
+        form = ("disagree", "#Q formed no bands")
+    else:
+        ref = max(x for x in (fa, fp, 0.0) if x is not None)
+        form = (("agree" if fq >= SLOWER_FORMATION * ref else "disagree" if fq <= ref else "inconclusive"),
+                f"#Q's bands form at rotation {fq:.0f}, against {ref:.0f}")
+    return combine([width, con, form])

@@ -188,51 +188,69 @@ def _events_text(events):
     return ", ".join(f"{e['from']}→{e['to']} at {e['rotation']:.0f}" for e in events) or "–"
 
 
-def section_v_lines(summaries):
-    """Section V's claims, one row each, from the runs present (compare/sectionv.py)."""
+def section_v_claims(summaries, step=None):
+    """Section V's claims, each with our measures and a verdict, from the runs
+    present (compare/sectionv.py: measures, margins and verdict rules). A claim
+    whose runs have not all reached the paper's length is open. Returns dicts:
+    claim, ours, verdict, reason, runs (ids), running (ids). ``step``: the
+    step check (compare/table1_step.py), whose runs of #A give its wandering."""
+    from . import sectionv as sv
     by = {r["run"]: r for r in summaries}
+    claims = []
 
     def f(x, spec=".1f"):
         return "–" if x is None else format(x, spec)
 
-    def state(r):
-        return f"{r['rotations_reached']:.0f} of {r['rotations_requested']:g} rotations" + \
-            ("" if r["done"] else " (running)")
+    def add(claim, ours, rs, verdict_reason):
+        running = [r["run"] for r in rs if not r["done"]]
+        v, reason = verdict_reason
+        if running:
+            v, reason = "open", f"{', '.join('#' + x for x in running)} not at the paper's length; so far: {v}, {reason}"
+        claims.append({"claim": claim, "ours": ours, "verdict": v, "reason": reason,
+                       "runs": [r["run"] for r in rs], "running": running})
 
-    def runs_cell(rs):
-        return ", ".join("#" + r["run"] + ("" if r["done"] else " (running)") for r in rs)
+    def per_run(rs, judge):
+        """One verdict for several runs, each judged alone."""
+        parts = [judge(r) for r in rs]
+        v, _ = sv.combine(parts)
+        return v, "; ".join(f"#{r['run']} {pv}: {pr}" for r, (pv, pr) in zip(rs, parts))
 
-    rows = []
     for rid in "VX":
         if rid in by and by[rid].get("section_v"):
             v = by[rid]["section_v"]
-            rows.append(f"| #{rid}: \"no hint of mixing\" | interface width {f(v['interface_width_first_tenth'])} → "
-                        f"{f(v['interface_width_last_tenth'])} (first → last tenth of the run); mixed from "
-                        f"{f(v.get('mixing_time'), '.0f')} | {state(by[rid])} |")
+            add(f"#{rid}: \"no hint of mixing\"",
+                f"interface width {f(v['interface_width_first_tenth'])} → {f(v['interface_width_last_tenth'])} "
+                f"(first → last tenth of the run); mixed from {f(v.get('mixing_time'), '.0f')}",
+                [by[rid]], sv.no_mixing_verdict(v))
     if by.get("W", {}).get("section_v"):
         v = by["W"]["section_v"]
-        rows.append(f"| #W: the initial bands vanish as the species mix | order parameter below threshold from "
-                    f"rotation {f(v.get('mixing_time'), '.0f')}; interface width {f(v['interface_width_first_tenth'])} → "
-                    f"{f(v['interface_width_last_tenth'])} | {state(by['W'])} |")
+        add("#W: the initial bands vanish as the species mix",
+            f"order parameter below threshold from rotation {f(v.get('mixing_time'), '.0f')}; interface width "
+            f"{f(v['interface_width_first_tenth'])} → {f(v['interface_width_last_tenth'])}",
+            [by["W"]], sv.mixing_verdict(v))
     if by.get("Y", {}).get("section_v"):
         r = by["Y"]
         v = r["section_v"]
         ev = ", ".join(f"{e['kind']} {e['from']}→{e['to']} at {e['rotation']:.0f}" for e in r["events"]) or "none"
-        sp = v["band_speed_median"]
-        rows.append(f"| #Y: bands emerge and vanish; the regions exchange; band speed about 0.01 d per rotation "
-                    f"| events: {ev}; profile correlation with the start reaches {f(v.get('exchange_min'), '.2f')}"
-                    f"{' (exchanged from rotation ' + f(v.get('exchanged_at'), '.0f') + ')' if v.get('exchanged_at') else ''}; "
-                    f"band speed {f(sp, '.4f')} d per rotation ({v['band_speed_tracks']} boundaries followed) "
-                    f"| {state(r)} |")
+        add("#Y: bands emerge and vanish (\"multiple band formation and disappearance events\")",
+            f"events: {ev}", [r], sv.events_verdict(r["events"]))
+        add("#Y: the segregated regions exchange positions",
+            f"profile correlation with the start reaches {f(v.get('exchange_min'), '.2f')}"
+            f"{' (exchanged from rotation ' + f(v.get('exchanged_at'), '.0f') + ')' if v.get('exchanged_at') else ''}",
+            [r], sv.exchange_verdict(v))
+        add("#Y: band speed about 0.01 d per rotation in the central portion",
+            f"band speed {f(v['band_speed_median'], '.4f')} d per rotation ({v['band_speed_tracks']} boundaries "
+            f"followed)", [r], sv.band_speed_verdict(v))
     # the odd count is the claim of the initially mixed capped runs (#R-#U);
     # #X and #Y start as two halves
     capped = [r for r in summaries if "ends_last_tenth" in r.get("section_v", {})
               and (_scene_of(r["run"]) or {}).get("particles", {}).get("initial_state") == "mixed"]
     if capped:
-        cells = "; ".join(f"#{r['run']} {r['bands_final']} bands, ends {'/'.join(r['section_v']['ends_last_tenth'])}"
-                          for r in capped)
-        rows.append(f"| capped runs: odd band counts, the rougher big particles at both ends | {cells} | "
-                    f"{runs_cell(capped)} |")
+        add("capped runs: odd band counts, the rougher big particles at both ends",
+            "; ".join(f"#{r['run']} {r['bands_final']} bands, ends {'/'.join(r['section_v']['ends_last_tenth'])}"
+                      for r in capped),
+            capped, per_run(capped, lambda r: sv.capped_ends_verdict(r["bands_final"],
+                                                                       r["section_v"]["ends_last_tenth"])))
     # Sec. V.B: with caps, formation starts at several interior places, not at the ends
     nucl = [r for r in capped if r["section_v"].get("onset_interior")]
     if nucl:
@@ -242,14 +260,16 @@ def section_v_lines(summaries):
             return (f"#{r['run']}: interior bands begin at rotations "
                     f"{', '.join(f'{x:.0f}' for x in v['onset_interior'])} ({len(v['onset_interior'])} of "
                     f"{v['onset_interior_bands']}), the end bands at {ends}")
-        cells = "; ".join(cell(r) for r in nucl)
-        rows.append(f"| capped runs: formation begins at several places at once; the ends are not nucleation sites "
-                    f"| {cells} | {runs_cell(nucl)} |")
+        add("capped runs: formation begins at several places at once; the ends are not nucleation sites",
+            "; ".join(cell(r) for r in nucl), nucl, per_run(nucl, lambda r: sv.nucleation_verdict(r["section_v"])))
     # Sec. V.A-B: a periodic pattern wanders along the axis as a whole, by less
     # than the spacing between alternate bands (Fig. 1); capped ends hold it
-    # still (#R, #S). The band speed is the median drift of the boundaries
+    # still (#X). The band speed is the median drift of the boundaries
     # followed over 1000 rotations in the run's central half; the excursion is
-    # the range of the dominant mode's position (compare/sectionv.py).
+    # the range of the dominant mode's position (compare/sectionv.py). Judged
+    # over the initially mixed periodic runs and the capped ones other than
+    # #Y: the paper gives #V's two bands "excessive motion of the pattern as a
+    # whole", and #Y's bands move (its own claim above).
     def motion(v):
         parts = []
         if v.get("band_speed_median") is not None:
@@ -258,13 +278,35 @@ def section_v_lines(summaries):
             parts.append(f"wanders over {v['pattern_excursion']:.1f} = {v['pattern_excursion'] / v['pattern_wavelength']:.2f}"
                          f" of the alternate-band spacing in {v['pattern_rotations']:.0f} rotations")
         return ", ".join(parts)
+
+    def is_capped(r):
+        return "ends_last_tenth" in r["section_v"]
+
+    def judged(r):
+        if is_capped(r):
+            return r["run"] != "Y"
+        return (_scene_of(r["run"]) or {}).get("particles", {}).get("initial_state", "mixed") == "mixed"
+    def measured(r):
+        v = r["section_v"]
+        return v.get("band_speed_median") is not None if is_capped(r) else v.get("pattern_excursion") is not None
     moving = [r for r in summaries if motion(r.get("section_v") or {})]
-    if moving:
-        cells = "; ".join(f"#{r['run']} ({'capped' if 'ends_last_tenth' in r['section_v'] else 'periodic'}) "
+    held = [r for r in moving if judged(r) and measured(r)]
+    parts = [(f"#{r['run']}", sv.wander_verdict(r["section_v"], is_capped(r))) for r in held]
+    # #A's own wandering (Fig. 1), from the step check's 1000-rotation runs
+    ratios = [p["excursion"] / p["wavelength"] for p in
+              (x.get("pattern") for x in ((step or {}).get("runs") or []) if x["complete"]) if p]
+    if ratios:
+        parts.insert(0, (f"#A ({len(ratios)} runs of the step check)", sv.wander_many_verdict(ratios)))
+    if parts:
+        cells = "; ".join(f"#{r['run']} ({'capped' if is_capped(r) else 'periodic'}) "
                           f"{motion(r['section_v'])}" for r in moving)
-        rows.append(f"| periodic patterns wander along the axis, by less than the spacing between alternate bands; "
-                    f"capped ones stay still | {cells} | "
-                    f"{runs_cell(moving)} |")
+        if ratios:
+            cells = (f"#A (step check) wanders over {min(ratios):.2f}–{max(ratios):.2f} of the alternate-band "
+                     f"spacing, median {np.median(ratios):.2f}; ") + cells
+        v, _ = sv.combine([p for _, p in parts])
+        add("periodic patterns wander along the axis, by less than the spacing between alternate bands; "
+            "capped ones stay still", cells, held,
+            (v, "; ".join(f"{name} {pv}: {pr}" for name, (pv, pr) in parts)))
     blur = [r for r in summaries if r["run"] in "APQ" and r.get("section_v")]
     if len(blur) > 1:
         # Sec. V.A: fuller drums segregate less thoroughly (band contrast),
@@ -275,15 +317,32 @@ def section_v_lines(summaries):
             return (f"#{r['run']} contrast {v['contrast_last_tenth']:.3f}, interface width "
                     f"{v['interface_width_last_tenth']:.1f}, bands formed at rotation "
                     f"{f(r.get('formation_rotations'), '.0f')}")
-        cells = "; ".join(blur_cell(r) for r in blur)
-        rows.append(f"| #P, #Q (fuller drums) blur: less contrast and wider interfaces than #A, #Q more than #P, "
-                    f"and #Q's bands take longer to appear | over the last tenth of each run: "
-                    f"{cells} | {runs_cell(blur)} |")
-    if not rows:
+        got = {r["run"]: r for r in blur}
+        vr = (sv.blur_verdict(*[(got[x]["section_v"], got[x].get("formation_rotations")) for x in "APQ"])
+              if len(got) == 3 else ("inconclusive", "needs #A, #P and #Q"))
+        add("#P, #Q (fuller drums) blur: wider interfaces in #P than in #A; in #Q less contrast than in #P, "
+            "and bands that take longer to appear",
+            f"over the last tenth of each run: {'; '.join(blur_cell(r) for r in blur)}", blur, vr)
+    return claims
+
+
+def section_v_lines(summaries):
+    """Section V's claims over the runs (section_v_claims) as a Markdown table."""
+    return claims_table(section_v_claims(summaries))
+
+
+def claims_table(claims):
+    """The claims of section_v_claims as a Markdown table."""
+    if not claims:
         return []
+    rows = [f"| {c['claim']} | {c['ours']} | {c['verdict']}: {c['reason']} | "
+            f"{', '.join('#' + x + (' (running)' if x in c['running'] else '') for x in c['runs'])} |"
+            for c in claims]
     return ["", "## Section V's claims over the runs", "",
-            "Measures of compare/sectionv.py (docs/observables.md, \"Long runs\").", "",
-            "| claim | ours | runs |", "|---|---|---|"] + rows
+            "Measures of compare/sectionv.py (docs/observables.md, \"Long runs\"); the verdicts' rules and "
+            "margins are in the same file, fixed from the paper's words and the spread between runs it calls "
+            "alike. A claim whose runs have not reached the paper's length is open.", "",
+            "| claim | ours | verdict | runs |", "|---|---|---|---|"] + rows
 
 
 def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None, earlier=None):
@@ -434,7 +493,10 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None, ear
               "when γ_s^bb > γ_s^ss; none when γ_s^bw < γ_s^sw.", "",
               "| run | γ_s^bb | γ_s^ss | γ_s^bw | γ_s^sw | b | rule predicts | Table I | ours | ours vs rule |",
               "|---|---|---|---|---|---|---|---|---|---|"] + rule_rows
-    lines += section_v_lines(summaries)
+    from .table1_step import step_check, step_lines
+    step = step_check(run_dir)
+    claims = section_v_claims(summaries, step)
+    lines += claims_table(claims)
     if surf_rows:
         lines += ["", "## Free-surface slope (Fig. 9)", "",
                   "Short periodic sections of the #J/#K cylinder (D = 24); the slope is an axial average. "
@@ -447,15 +509,13 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None, ear
         lines += [f"![{label}]({rel}/{p.name})" for label, p in view_figs]
     lines += ["", "## Figures", ""]
     lines += [f"![{rid}]({rel}/{p.name})" for rid, p in figs]
-    from .table1_step import step_check, step_lines
-    step = step_check(run_dir)
     lines += step_lines(step)
     notes = Path(notes) if notes else out_md.with_name("table1_notes.md")
     if notes.exists():
         lines += ["", notes.read_text().rstrip()]
     out_md.write_text("\n".join(lines) + "\n")
     out_json = Path(out_json) if out_json else out_md.with_suffix(".json")
-    out_json.write_text(json.dumps({"runs": summaries, "step_check": step, "tolerance_bands": TOLERANCE_BANDS,
+    out_json.write_text(json.dumps({"runs": summaries, "section_v_claims": claims, "step_check": step, "tolerance_bands": TOLERANCE_BANDS,
                                     "event_window_rotations": EVENT_WINDOW}, indent=1, default=float) + "\n")
     return out_md
 

@@ -132,3 +132,60 @@ def test_section_v_command_prints_each_runs_measures(tmp_path):
     missing = tmp_path / "missing.h5"
     r = subprocess.run([sys.executable, "-m", "compare", "section-v", str(missing)], capture_output=True, text=True)
     assert r.returncode == 2 and str(missing) in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_claim_verdicts_take_each_side_of_their_margins():
+    """Each claim's rule gives agree, disagree and (where it has a middle
+    zone) inconclusive on the two sides of its margins (compare/sectionv.py)."""
+    from compare import sectionv as sv
+    sharp = {"interface_width_first_tenth": 12.0, "mixing_time": None}
+    assert sv.no_mixing_verdict(sharp | {"interface_width_last_tenth": 14.0})[0] == "agree"
+    assert sv.no_mixing_verdict(sharp | {"interface_width_last_tenth": 16.5})[0] == "inconclusive"
+    assert sv.no_mixing_verdict(sharp | {"interface_width_last_tenth": 19.0})[0] == "disagree"
+    mixed = sharp | {"interface_width_last_tenth": 12.0, "mixing_time": 800.0}
+    assert sv.no_mixing_verdict(mixed)[0] == "disagree"
+    assert sv.mixing_verdict(mixed)[0] == "agree" and sv.mixing_verdict(sharp)[0] == "disagree"
+
+    ev = [{"from": 0, "to": 2, "kind": "formation"}, {"from": 2, "to": 4, "kind": "split"}]
+    assert sv.events_verdict(ev)[0] == "disagree"  # a split and no merge
+    assert sv.events_verdict(ev + [{"from": 4, "to": 2, "kind": "merge"}])[0] == "agree"
+
+    assert sv.exchange_verdict({"exchange_min": -0.9})[0] == "agree"
+    assert sv.exchange_verdict({"exchange_min": -0.3})[0] == "inconclusive"
+    assert sv.exchange_verdict({"exchange_min": -0.04})[0] == "disagree"
+
+    assert sv.band_speed_verdict({"band_speed_median": 0.008, "band_speed_tracks": 3})[0] == "agree"
+    assert sv.band_speed_verdict({"band_speed_median": 0.0002, "band_speed_tracks": 1})[0] == "disagree"
+    assert sv.band_speed_verdict({"band_speed_median": 0.05, "band_speed_tracks": 4})[0] == "disagree"
+    assert sv.band_speed_verdict({"band_speed_median": None, "band_speed_tracks": 0})[0] == "inconclusive"
+
+    assert sv.capped_ends_verdict(5, ("big", "big"))[0] == "agree"
+    assert sv.capped_ends_verdict(4, ("big", "big"))[0] == "disagree"
+    assert sv.capped_ends_verdict(5, ("big", "small"))[0] == "disagree"
+
+    assert sv.nucleation_verdict({"onset_interior": [12, 14, 20], "onset_ends": [34, None]})[0] == "agree"
+    assert sv.nucleation_verdict({"onset_interior": [12, 40], "onset_ends": [20, None]})[0] == "disagree"
+
+    assert sv.wander_verdict({"pattern_excursion": 10.0, "pattern_wavelength": 32.0}, capped=False)[0] == "agree"
+    assert sv.wander_verdict({"pattern_excursion": 40.0, "pattern_wavelength": 32.0}, capped=False)[0] == "disagree"
+    assert sv.wander_verdict({"band_speed_median": 5e-5}, capped=True)[0] == "agree"
+    assert sv.wander_verdict({"band_speed_median": 0.004}, capped=True)[0] == "disagree"
+    assert sv.wander_many_verdict([0.2, 0.4, 0.9])[0] == "agree"
+    assert sv.wander_many_verdict([0.2, 0.4, 1.3])[0] == "inconclusive"
+    assert sv.wander_many_verdict([0.2, 1.4, 1.3])[0] == "disagree"
+
+
+def test_blur_verdict_reads_each_part_of_the_claim():
+    from compare import sectionv as sv
+
+    def m(width, contrast):
+        return {"interface_width_last_tenth": width, "contrast_last_tenth": contrast}
+    a = (m(10.0, 0.32), 18.0)
+    assert sv.blur_verdict(a, (m(17.0, 0.29), 22.0), (m(21.0, 0.12), 387.0))[0] == "agree"
+    # #P's interfaces no wider than #A's: the "starting to blur" part fails
+    assert sv.blur_verdict(a, (m(9.0, 0.29), 22.0), (m(21.0, 0.12), 387.0))[0] == "disagree"
+    # #Q's contrast only a little below #P's: not decided
+    assert sv.blur_verdict(a, (m(17.0, 0.29), 22.0), (m(21.0, 0.27), 387.0))[0] == "inconclusive"
+    # #Q's bands no slower than #P's
+    assert sv.blur_verdict(a, (m(17.0, 0.29), 22.0), (m(21.0, 0.12), 20.0))[0] == "disagree"
+    assert sv.blur_verdict(a, (m(17.0, 0.29), 22.0), (m(21.0, 0.12), None))[0] == "disagree"

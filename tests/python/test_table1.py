@@ -196,3 +196,25 @@ def test_a_running_run_is_open_not_a_disagreement():
     assert _mark(True, True, done=False) == "✓"
     assert _mark(True, False, done=False) == "open"  # bands may still form
     assert _mark(True, False) == "✗"
+
+
+def test_section_v_claims_carry_verdicts_and_a_running_run_keeps_its_claim_open():
+    """Every claim row has a verdict; a run short of the paper's length leaves
+    its claim open whatever its measures say so far, and #V is not judged by
+    the wander rule (the paper gives its two bands "excessive motion")."""
+    from compare.table1 import section_v_claims
+
+    def summary(rid, done=True, **sv):
+        return {"run": rid, "done": done, "rotations_reached": 1000.0, "rotations_requested": 1000.0,
+                "bands_final": sv.pop("bands", 2), "events": [], "section_v": sv}
+    v_mixing = dict(interface_width_first_tenth=12.0, interface_width_last_tenth=40.0, mixing_time=None,
+                    band_speed_median=0.03, band_speed_tracks=1, pattern_excursion=64.0,
+                    pattern_wavelength=64.0, pattern_rotations=900.0)
+    claims = {c["claim"]: c for c in section_v_claims([summary("V", **v_mixing)])}
+    assert claims['#V: "no hint of mixing"']["verdict"] == "disagree"
+    assert not [c for c in claims if c.startswith("periodic patterns")]
+    claims = {c["claim"]: c for c in section_v_claims([summary("V", done=False, **v_mixing)])}
+    c = claims['#V: "no hint of mixing"']
+    assert c["verdict"] == "open" and c["running"] == ["V"] and "so far: disagree" in c["reason"]
+    rows = section_v_lines([summary("V", **v_mixing)])
+    assert rows[-2] == "|---|---|---|---|" and "| disagree: interface width +233%" in rows[-1]
