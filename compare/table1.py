@@ -192,7 +192,8 @@ def section_v_claims(summaries, step=None):
     """Section V's claims, each with our measures and a verdict, from the runs
     present (compare/sectionv.py: measures, margins and verdict rules). A claim
     whose runs have not all reached the paper's length is open. Returns dicts:
-    claim, ours, verdict, reason, runs (ids), running (ids). ``step``: the
+    name (a short label), claim, ours, verdict, reason, runs (ids), running
+    (ids). ``step``: the
     step check (compare/table1_step.py), whose runs of #A give its wandering."""
     from . import sectionv as sv
     by = {r["run"]: r for r in summaries}
@@ -201,12 +202,12 @@ def section_v_claims(summaries, step=None):
     def f(x, spec=".1f"):
         return "–" if x is None else format(x, spec)
 
-    def add(claim, ours, rs, verdict_reason):
+    def add(name, claim, ours, rs, verdict_reason):
         running = [r["run"] for r in rs if not r["done"]]
         v, reason = verdict_reason
         if running:
             v, reason = "open", f"{', '.join('#' + x for x in running)} not at the paper's length; so far: {v}, {reason}"
-        claims.append({"claim": claim, "ours": ours, "verdict": v, "reason": reason,
+        claims.append({"name": name, "claim": claim, "ours": ours, "verdict": v, "reason": reason,
                        "runs": [r["run"] for r in rs], "running": running})
 
     def per_run(rs, judge):
@@ -218,13 +219,13 @@ def section_v_claims(summaries, step=None):
     for rid in "VX":
         if rid in by and by[rid].get("section_v"):
             v = by[rid]["section_v"]
-            add(f"#{rid}: \"no hint of mixing\"",
+            add(f"#{rid} no mixing", f"#{rid}: \"no hint of mixing\"",
                 f"interface width {f(v['interface_width_first_tenth'])} → {f(v['interface_width_last_tenth'])} "
                 f"(first → last tenth of the run); mixed from {f(v.get('mixing_time'), '.0f')}",
                 [by[rid]], sv.no_mixing_verdict(v))
     if by.get("W", {}).get("section_v"):
         v = by["W"]["section_v"]
-        add("#W: the initial bands vanish as the species mix",
+        add("#W mixing", "#W: the initial bands vanish as the species mix",
             f"order parameter below threshold from rotation {f(v.get('mixing_time'), '.0f')}; interface width "
             f"{f(v['interface_width_first_tenth'])} → {f(v['interface_width_last_tenth'])}",
             [by["W"]], sv.mixing_verdict(v))
@@ -232,13 +233,13 @@ def section_v_claims(summaries, step=None):
         r = by["Y"]
         v = r["section_v"]
         ev = ", ".join(f"{e['kind']} {e['from']}→{e['to']} at {e['rotation']:.0f}" for e in r["events"]) or "none"
-        add("#Y: bands emerge and vanish (\"multiple band formation and disappearance events\")",
+        add("#Y events", "#Y: bands emerge and vanish (\"multiple band formation and disappearance events\")",
             f"events: {ev}", [r], sv.events_verdict(r["events"]))
-        add("#Y: the segregated regions exchange positions",
+        add("#Y exchange", "#Y: the segregated regions exchange positions",
             f"profile correlation with the start reaches {f(v.get('exchange_min'), '.2f')}"
             f"{' (exchanged from rotation ' + f(v.get('exchanged_at'), '.0f') + ')' if v.get('exchanged_at') else ''}",
             [r], sv.exchange_verdict(v))
-        add("#Y: band speed about 0.01 d per rotation in the central portion",
+        add("#Y band speed", "#Y: band speed about 0.01 d per rotation in the central portion",
             f"band speed {f(v['band_speed_median'], '.4f')} d per rotation ({v['band_speed_tracks']} boundaries "
             f"followed)", [r], sv.band_speed_verdict(v))
     # the odd count is the claim of the initially mixed capped runs (#R-#U);
@@ -246,7 +247,7 @@ def section_v_claims(summaries, step=None):
     capped = [r for r in summaries if "ends_last_tenth" in r.get("section_v", {})
               and (_scene_of(r["run"]) or {}).get("particles", {}).get("initial_state") == "mixed"]
     if capped:
-        add("capped runs: odd band counts, the rougher big particles at both ends",
+        add("capped ends", "capped runs: odd band counts, the rougher big particles at both ends",
             "; ".join(f"#{r['run']} {r['bands_final']} bands, ends {'/'.join(r['section_v']['ends_last_tenth'])}"
                       for r in capped),
             capped, per_run(capped, lambda r: sv.capped_ends_verdict(r["bands_final"],
@@ -260,7 +261,7 @@ def section_v_claims(summaries, step=None):
             return (f"#{r['run']}: interior bands begin at rotations "
                     f"{', '.join(f'{x:.0f}' for x in v['onset_interior'])} ({len(v['onset_interior'])} of "
                     f"{v['onset_interior_bands']}), the end bands at {ends}")
-        add("capped runs: formation begins at several places at once; the ends are not nucleation sites",
+        add("capped nucleation", "capped runs: formation begins at several places at once; the ends are not nucleation sites",
             "; ".join(cell(r) for r in nucl), nucl, per_run(nucl, lambda r: sv.nucleation_verdict(r["section_v"])))
     # Sec. V.A-B: a periodic pattern wanders along the axis as a whole, by less
     # than the spacing between alternate bands (Fig. 1); capped ends hold it
@@ -304,7 +305,7 @@ def section_v_claims(summaries, step=None):
             cells = (f"#A (step check) wanders over {min(ratios):.2f}–{max(ratios):.2f} of the alternate-band "
                      f"spacing, median {np.median(ratios):.2f}; ") + cells
         v, _ = sv.combine([p for _, p in parts])
-        add("periodic patterns wander along the axis, by less than the spacing between alternate bands; "
+        add("pattern motion", "periodic patterns wander along the axis, by less than the spacing between alternate bands; "
             "capped ones stay still", cells, held,
             (v, "; ".join(f"{name} {pv}: {pr}" for name, (pv, pr) in parts)))
     blur = [r for r in summaries if r["run"] in "APQ" and r.get("section_v")]
@@ -320,7 +321,7 @@ def section_v_claims(summaries, step=None):
         got = {r["run"]: r for r in blur}
         vr = (sv.blur_verdict(*[(got[x]["section_v"], got[x].get("formation_rotations")) for x in "APQ"])
               if len(got) == 3 else ("inconclusive", "needs #A, #P and #Q"))
-        add("#P, #Q (fuller drums) blur: wider interfaces in #P than in #A; in #Q less contrast than in #P, "
+        add("#P/#Q blur", "#P, #Q (fuller drums) blur: wider interfaces in #P than in #A; in #Q less contrast than in #P, "
             "and bands that take longer to appear",
             f"over the last tenth of each run: {'; '.join(blur_cell(r) for r in blur)}", blur, vr)
     return claims
@@ -343,6 +344,20 @@ def claims_table(claims):
             "margins are in the same file, fixed from the paper's words and the spread between runs it calls "
             "alike. A claim whose runs have not reached the paper's length is open.", "",
             "| claim | ours | verdict | runs |", "|---|---|---|---|"] + rows
+
+
+def verdict_summary(summaries, claims):
+    """One paragraph counting the verdicts: Table I's x->y per run, and
+    Section V's claims (section_v_claims)."""
+    def count(items):
+        by = {}
+        for name, v in items:
+            by.setdefault(v, []).append(name)
+        return "; ".join(f"{v} {len(by[v])} ({', '.join(by[v])})" for v in ("agree", "disagree", "inconclusive", "open")
+                         if v in by)
+    table = count((f"#{r['run']}", r["verdict"]) for r in summaries)
+    sec = count((c["name"], c["verdict"]) for c in claims)
+    return ["", f"**Verdicts.** Table I's x→y: {table}." + (f" Section V's claims (below): {sec}." if claims else "")]
 
 
 def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None, earlier=None):
@@ -488,14 +503,15 @@ def table1(run_dir, out_md, fig_dir, notes=None, out_json=None, commit=None, ear
                          f"made again to the paper's length here: {', '.join(ids)}." for c, ids in by_commit.items()]
     if missing:
         lines += ["", f"Not run yet: {', '.join('#' + m for m in missing)}."]
+    from .table1_step import step_check, step_lines
+    step = step_check(run_dir)
+    claims = section_v_claims(summaries, step)
+    lines += verdict_summary(summaries, claims)
     lines += ["", "## The friction rules of Sec. V.A (runs #A–#H, #L–#N)", "",
               "The paper's summary: segregation when γ_s^bw > γ_s^sw; with equal wall coefficients only "
               "when γ_s^bb > γ_s^ss; none when γ_s^bw < γ_s^sw.", "",
               "| run | γ_s^bb | γ_s^ss | γ_s^bw | γ_s^sw | b | rule predicts | Table I | ours | ours vs rule |",
               "|---|---|---|---|---|---|---|---|---|---|"] + rule_rows
-    from .table1_step import step_check, step_lines
-    step = step_check(run_dir)
-    claims = section_v_claims(summaries, step)
     lines += claims_table(claims)
     if surf_rows:
         lines += ["", "## Free-surface slope (Fig. 9)", "",

@@ -218,3 +218,13 @@ def test_section_v_claims_carry_verdicts_and_a_running_run_keeps_its_claim_open(
     assert c["verdict"] == "open" and c["running"] == ["V"] and "so far: disagree" in c["reason"]
     rows = section_v_lines([summary("V", **v_mixing)])
     assert rows[-2] == "|---|---|---|---|" and "| disagree: interface width +233%" in rows[-1]
+
+
+def test_verdict_summary_counts_each_verdict_once():
+    from compare.table1 import verdict_summary
+    runs = [{"run": "A", "verdict": "agree"}, {"run": "L", "verdict": "disagree"}, {"run": "J", "verdict": "open"},
+            {"run": "C", "verdict": "agree"}]
+    claims = [{"name": "#Y exchange", "verdict": "disagree"}, {"name": "#X no mixing", "verdict": "agree"}]
+    line = verdict_summary(runs, claims)[-1]
+    assert "agree 2 (#A, #C); disagree 1 (#L); open 1 (#J)." in line
+    assert "Section V's claims (below): agree 1 (#X no mixing); disagree 1 (#Y exchange)." in line
