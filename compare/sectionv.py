@@ -331,7 +331,7 @@ def band_speed_verdict(v):
     s, n = v.get("band_speed_median"), v.get("band_speed_tracks", 0)
     if s is None or n == 0:
         return "inconclusive", "no boundary could be followed"
-    text = f"band speed {s:.2g} d per rotation ({n} boundaries)"
+    text = f"band speed {s:.2g} d per rotation ({n} {'boundary' if n == 1 else 'boundaries'})"
     lo, hi = PAPER_BAND_SPEED / SPEED_FACTOR, PAPER_BAND_SPEED * SPEED_FACTOR
     if lo <= s <= hi:
         return "agree", text

@@ -240,7 +240,7 @@ def section_v_claims(summaries, step=None):
             f"{' (exchanged from rotation ' + f(v.get('exchanged_at'), '.0f') + ')' if v.get('exchanged_at') else ''}",
             [r], sv.exchange_verdict(v))
         add("#Y band speed", "#Y: band speed about 0.01 d per rotation in the central portion",
-            f"band speed {f(v['band_speed_median'], '.4f')} d per rotation ({v['band_speed_tracks']} boundaries "
+            f"band speed {f(v['band_speed_median'], '.4f')} d per rotation ({v['band_speed_tracks']} {'boundary' if v['band_speed_tracks'] == 1 else 'boundaries'} "
             f"followed)", [r], sv.band_speed_verdict(v))
     # the odd count is the claim of the initially mixed capped runs (#R-#U);
     # #X and #Y start as two halves
@@ -276,7 +276,7 @@ def section_v_claims(summaries, step=None):
     def motion(v):
         parts = []
         if v.get("band_speed_median") is not None:
-            parts.append(f"band speed {v['band_speed_median']:.2g} d per rotation ({v['band_speed_tracks']} boundaries)")
+            parts.append(f"band speed {v['band_speed_median']:.2g} d per rotation ({v['band_speed_tracks']} {'boundary' if v['band_speed_tracks'] == 1 else 'boundaries'})")
         if v.get("pattern_excursion") is not None:
             parts.append(f"wanders over {v['pattern_excursion']:.1f} = {v['pattern_excursion'] / v['pattern_wavelength']:.2f}"
                          f" of the alternate-band spacing in {v['pattern_rotations']:.0f} rotations")
