@@ -273,6 +273,11 @@ STILL_SPEED = 0.001
 CONTRAST_DROP, SLOWER_FORMATION = 0.05, 2.0
 
 
+def boundaries_text(n):
+    """"1 boundary", "3 boundaries": how many boundaries a band speed followed."""
+    return f"{n} boundary" if n == 1 else f"{n} boundaries"
+
+
 def combine(parts):
     """One verdict from several: disagree if any part disagrees, else
     inconclusive if any part is, else agree. ``parts`` are (verdict, reason)."""
@@ -331,7 +336,7 @@ def band_speed_verdict(v):
     s, n = v.get("band_speed_median"), v.get("band_speed_tracks", 0)
     if s is None or n == 0:
         return "inconclusive", "no boundary could be followed"
-    text = f"band speed {s:.2g} d per rotation ({n} {'boundary' if n == 1 else 'boundaries'})"
+    text = f"band speed {s:.2g} d per rotation ({boundaries_text(n)})"
     lo, hi = PAPER_BAND_SPEED / SPEED_FACTOR, PAPER_BAND_SPEED * SPEED_FACTOR
     if lo <= s <= hi:
         return "agree", text

@@ -193,8 +193,8 @@ def section_v_claims(summaries, step=None):
     present (compare/sectionv.py: measures, margins and verdict rules). A claim
     whose runs have not all reached the paper's length is open. Returns dicts:
     name (a short label), claim, ours, verdict, reason, runs (ids), running
-    (ids). ``step``: the
-    step check (compare/table1_step.py), whose runs of #A give its wandering."""
+    (ids), also (other evidence named in the runs column). ``step``: the step
+    check (compare/table1_step.py), whose runs of #A give its wandering."""
     from . import sectionv as sv
     by = {r["run"]: r for r in summaries}
     claims = []
@@ -240,7 +240,7 @@ def section_v_claims(summaries, step=None):
             f"{' (exchanged from rotation ' + f(v.get('exchanged_at'), '.0f') + ')' if v.get('exchanged_at') else ''}",
             [r], sv.exchange_verdict(v))
         add("#Y band speed", "#Y: band speed about 0.01 d per rotation in the central portion",
-            f"band speed {f(v['band_speed_median'], '.4f')} d per rotation ({v['band_speed_tracks']} {'boundary' if v['band_speed_tracks'] == 1 else 'boundaries'} "
+            f"band speed {f(v['band_speed_median'], '.4f')} d per rotation ({sv.boundaries_text(v['band_speed_tracks'])} "
             f"followed)", [r], sv.band_speed_verdict(v))
     # the odd count is the claim of the initially mixed capped runs (#R-#U);
     # #X and #Y start as two halves
@@ -276,7 +276,7 @@ def section_v_claims(summaries, step=None):
     def motion(v):
         parts = []
         if v.get("band_speed_median") is not None:
-            parts.append(f"band speed {v['band_speed_median']:.2g} d per rotation ({v['band_speed_tracks']} {'boundary' if v['band_speed_tracks'] == 1 else 'boundaries'})")
+            parts.append(f"band speed {v['band_speed_median']:.2g} d per rotation ({sv.boundaries_text(v['band_speed_tracks'])})")
         if v.get("pattern_excursion") is not None:
             parts.append(f"wanders over {v['pattern_excursion']:.1f} = {v['pattern_excursion'] / v['pattern_wavelength']:.2f}"
                          f" of the alternate-band spacing in {v['pattern_rotations']:.0f} rotations")
